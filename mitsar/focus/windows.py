@@ -1,0 +1,59 @@
+"""Spectral weighting windows as cosine series, usable on samples and inside kernels.
+
+Every window here is ``w(x) = sum_m a_m cos(2 pi m (x - 1/2))`` on ``x in [0, 1]`` (1 at the
+centre for the ones below), so a kernel can evaluate it from a handful of coefficients at any
+position: rectangular ``[1]``, Hamming ``[0.54, 0.46]``, Hann ``[0.5, 0.5]``, and Taylor
+(nbar = 4, -35 dB sidelobes by default; Carrara 1995 App. D), whose coefficients are the Taylor
+``F_m`` terms.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.signal import windows as scipy_windows
+
+from mitsar.errors import ParameterError
+
+WINDOWS = ("rect", "hamming", "hann", "taylor")
+
+
+def window_coefficients(name: str, nbar: int = 4, sidelobe_db: float = 35.0) -> NDArray:
+    """Cosine-series coefficients ``a_m`` of a named window (see module docstring).
+
+    Parameters
+    ----------
+    name : {"rect", "hamming", "hann", "taylor"}
+    nbar, sidelobe_db : int, float
+        Taylor parameters (number of nearly constant sidelobes, sidelobe level [dB]).
+    """
+    if name in ("rect", "rectangular", None):
+        return np.array([1.0])
+    if name == "hamming":
+        return np.array([0.54, 0.46])
+    if name == "hann":
+        return np.array([0.5, 0.5])
+    if name == "taylor":
+        # The Taylor window is a finite cosine series with nbar - 1 harmonics: fit it exactly
+        # (least squares on dense samples) rather than re-deriving F_m.
+        samples = 4096
+        x = (np.arange(samples) + 0.5) / samples
+        values = scipy_windows.taylor(samples, nbar=nbar, sll=sidelobe_db, norm=True, sym=True)
+        basis = np.cos(2 * np.pi * np.arange(nbar)[None, :] * (x[:, None] - 0.5))
+        coefficients, *_ = np.linalg.lstsq(basis, values, rcond=None)
+        return coefficients
+    raise ParameterError("window", "window", f"one of {WINDOWS}", name)
+
+
+def evaluate_window(coefficients: ArrayLike, x: ArrayLike) -> NDArray:
+    """Window value at normalised positions ``x in [0, 1]`` (0 outside)."""
+    x = np.asarray(x, dtype=float)
+    coefficients = np.asarray(coefficients, dtype=float)
+    harmonics = np.arange(len(coefficients))
+    value = np.cos(2 * np.pi * harmonics * (x[..., None] - 0.5)) @ coefficients
+    return np.where((x >= 0) & (x <= 1), value, 0.0)
+
+
+def window_samples(name: str, count: int) -> NDArray:
+    """``count`` samples of a window at the sample centres ``x = (n + 1/2) / count``."""
+    return evaluate_window(window_coefficients(name), (np.arange(count) + 0.5) / count)

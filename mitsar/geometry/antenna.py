@@ -1,0 +1,79 @@
+"""Antenna pattern of a uniform rectangular aperture and the two-way gain.
+
+The one-way power pattern is the product of two sinc^2 factors (Balanis, uniform
+rectangular aperture), one per aperture axis,
+
+``P(u_az, u_el) = sinc^2(u_az / beta_az) * sinc^2(u_el / beta_el)``,  ``sinc(x) = sin(pi x)/(pi x)``,
+
+where ``u`` are the direction sines along the aperture's azimuth and elevation axes and
+``beta = lambda / D`` is the beamwidth of paper Table 1 (first null at ``u = beta``, -3.9 dB
+one-way at ``u = beta / 2``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+
+def direction_sines(directions: ArrayLike, frame: ArrayLike) -> tuple[NDArray, NDArray, NDArray]:
+    """Direction sines of unit vectors in an antenna frame.
+
+    Parameters
+    ----------
+    directions : array_like, shape (..., 3)
+        Unit vectors from the antenna toward the scene, world frame.
+    frame : array_like, shape (..., 3, 3)
+        Antenna-to-world rotation (columns: azimuth axis, elevation axis, boresight).
+
+    Returns
+    -------
+    u_az, u_el, cos_boresight : ndarray
+        Components along the azimuth axis, the elevation axis and the boresight.
+    """
+    directions = np.asarray(directions, dtype=float)
+    frame = np.asarray(frame, dtype=float)
+    local = np.einsum("...ji,...j->...i", frame, directions)
+    return local[..., 0], local[..., 1], local[..., 2]
+
+
+def one_way_pattern(u_az: ArrayLike, u_el: ArrayLike, beamwidth_az: float,
+                    beamwidth_el: float, cos_boresight: ArrayLike | None = None) -> NDArray:
+    """One-way power pattern of a uniform rectangular aperture (sinc^2 per axis).
+
+    Parameters
+    ----------
+    u_az, u_el : array_like
+        Direction sines along the azimuth and elevation axes.
+    beamwidth_az, beamwidth_el : float
+        Beamwidths lambda / D [rad].
+    cos_boresight : array_like, optional
+        Component along the boresight; directions behind the aperture (<= 0) get zero.
+
+    Returns
+    -------
+    ndarray
+        Power pattern, 1 on boresight.
+    """
+    pattern = (np.sinc(np.asarray(u_az) / beamwidth_az) ** 2
+               * np.sinc(np.asarray(u_el) / beamwidth_el) ** 2)
+    if cos_boresight is not None:
+        pattern = np.where(np.asarray(cos_boresight) > 0, pattern, 0.0)
+    return pattern
+
+
+def two_way_pattern(directions: ArrayLike, frame: ArrayLike, beamwidth_az: float,
+                    beamwidth_el: float) -> NDArray:
+    """Two-way power pattern ``P^2`` of a co-located transmit/receive antenna.
+
+    Parameters
+    ----------
+    directions : array_like, shape (..., 3)
+        Unit vectors from the antenna toward the scatterer.
+    frame : array_like, shape (..., 3, 3)
+        Antenna-to-world rotation.
+    beamwidth_az, beamwidth_el : float
+        Beamwidths [rad].
+    """
+    u_az, u_el, cos_b = direction_sines(directions, frame)
+    return one_way_pattern(u_az, u_el, beamwidth_az, beamwidth_el, cos_b) ** 2

@@ -1,0 +1,210 @@
+"""Platform trajectories: position, velocity and attitude as functions of time.
+
+Three ways to make one: :meth:`Trajectory.linear` (constant velocity), :meth:`Trajectory.waypoints`
+(straight legs at constant speed) and :meth:`Trajectory.navigation` (sampled navigation data,
+cubic Hermite interpolation). All are evaluated vectorised on arrays of times [s].
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.interpolate import CubicHermiteSpline, CubicSpline
+
+from mitsar.errors import ParameterError
+
+
+def _vector3(name: str, value: ArrayLike) -> NDArray[np.float64]:
+    array = np.asarray(value, dtype=float)
+    if array.shape != (3,) or not np.all(np.isfinite(array)):
+        raise ParameterError("Trajectory", name, "3 finite numbers [m or m/s]", value)
+    return array
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """A platform path over ``[0, duration]`` seconds.
+
+    Use the constructors :meth:`linear`, :meth:`waypoints` and :meth:`navigation`.
+
+    Attributes
+    ----------
+    kind : {"linear", "waypoints", "navigation"}
+    times : ndarray, shape (n,)
+        Knot times [s], starting at 0.
+    positions, velocities : ndarray, shape (n, 3)
+        Knot positions [m] and velocities [m/s].
+    attitude : ndarray, shape (n, 3) or None
+        Heading, pitch, roll [rad] at the knots; ``None`` means velocity-aligned flight
+        (heading along the horizontal velocity, zero pitch and roll).
+    """
+
+    kind: Literal["linear", "waypoints", "navigation"]
+    times: NDArray[np.float64]
+    positions: NDArray[np.float64]
+    velocities: NDArray[np.float64]
+    attitude: NDArray[np.float64] | None = None
+    _spline: object = field(default=None, repr=False, compare=False)
+
+    # --- constructors ---------------------------------------------------------------------
+    @classmethod
+    def linear(cls, start: ArrayLike, velocity: ArrayLike, duration: float) -> Trajectory:
+        """Straight flight at constant velocity.
+
+        Parameters
+        ----------
+        start : array_like, shape (3,)
+            Position at t = 0 [m].
+        velocity : array_like, shape (3,)
+            Constant velocity [m/s].
+        duration : float
+            Flight time [s].
+
+        Examples
+        --------
+        >>> Trajectory.linear([0, 0, 1], [0.5, 0, 0], 2.0).position(1.0)
+        array([0.5, 0. , 1. ])
+        """
+        start = _vector3("start", start)
+        velocity = _vector3("velocity", velocity)
+        if not duration > 0:
+            raise ParameterError("Trajectory", "duration", "a time > 0 s", duration)
+        if not np.linalg.norm(velocity) > 0:
+            raise ParameterError("Trajectory", "velocity", "a non-zero velocity [m/s]",
+                                 velocity.tolist())
+        times = np.array([0.0, float(duration)])
+        positions = np.stack([start, start + velocity * duration])
+        return cls("linear", times, positions, np.stack([velocity, velocity]))
+
+    @classmethod
+    def waypoints(cls, points: ArrayLike, speed: float) -> Trajectory:
+        """Straight legs between waypoints flown at constant ``speed`` [m/s]."""
+        points = np.asarray(points, dtype=float)
+        if points.ndim != 2 or points.shape[1] != 3 or len(points) < 2:
+            raise ParameterError("Trajectory", "points", "at least 2 waypoints of 3 numbers",
+                                 points.tolist())
+        if not speed > 0:
+            raise ParameterError("Trajectory", "speed", "a speed > 0 m/s", speed)
+        legs = np.linalg.norm(np.diff(points, axis=0), axis=1)
+        if np.any(legs <= 0):
+            raise ParameterError("Trajectory", "points", "distinct consecutive waypoints",
+                                 points.tolist())
+        times = np.concatenate([[0.0], np.cumsum(legs) / speed])
+        leg_velocity = np.diff(points, axis=0) / np.diff(times)[:, None]
+        velocities = np.vstack([leg_velocity, leg_velocity[-1:]])
+        return cls("waypoints", times, points, velocities)
+
+    @classmethod
+    def navigation(cls, times: ArrayLike, positions: ArrayLike,
+                   velocities: ArrayLike | None = None,
+                   attitude_deg: ArrayLike | None = None) -> Trajectory:
+        """Sampled navigation data, interpolated by cubic Hermite splines.
+
+        Parameters
+        ----------
+        times : array_like, shape (n,)
+            Strictly increasing sample times [s]; shifted so the first is 0.
+        positions : array_like, shape (n, 3)
+            Positions [m].
+        velocities : array_like, shape (n, 3), optional
+            Velocities [m/s]; estimated by a cubic spline when omitted.
+        attitude_deg : array_like, shape (n, 3), optional
+            Heading, pitch, roll [deg]; velocity-aligned when omitted.
+        """
+        times = np.asarray(times, dtype=float)
+        positions = np.asarray(positions, dtype=float)
+        if times.ndim != 1 or len(times) < 2 or np.any(np.diff(times) <= 0):
+            raise ParameterError("Trajectory", "times", "at least 2 strictly increasing times",
+                                 times.tolist())
+        if positions.shape != (len(times), 3):
+            raise ParameterError("Trajectory", "positions", f"shape ({len(times)}, 3)",
+                                 positions.shape)
+        times = times - times[0]
+        if velocities is None:
+            velocities = CubicSpline(times, positions, axis=0)(times, 1)
+        velocities = np.asarray(velocities, dtype=float)
+        if velocities.shape != positions.shape:
+            raise ParameterError("Trajectory", "velocities", f"shape {positions.shape}",
+                                 velocities.shape)
+        attitude = None
+        if attitude_deg is not None:
+            attitude = np.radians(np.asarray(attitude_deg, dtype=float))
+            if attitude.shape != positions.shape:
+                raise ParameterError("Trajectory", "attitude_deg", f"shape {positions.shape}",
+                                     attitude.shape)
+            attitude[:, 0] = np.unwrap(attitude[:, 0])
+        spline = CubicHermiteSpline(times, positions, velocities, axis=0)
+        return cls("navigation", times, positions, velocities, attitude, spline)
+
+    # --- evaluation -----------------------------------------------------------------------
+    @property
+    def duration(self) -> float:
+        """Flight time [s]."""
+        return float(self.times[-1])
+
+    @property
+    def is_straight(self) -> bool:
+        """True for a straight track at constant velocity (what FFT focusing needs)."""
+        if self.kind == "linear":
+            return True
+        spread = np.ptp(self.velocities, axis=0)
+        speed = np.linalg.norm(self.velocities, axis=1).max()
+        return bool(np.all(spread <= 1e-9 * max(speed, 1.0)))
+
+    def _check_times(self, t: NDArray) -> None:
+        tolerance = 1e-9 * max(self.duration, 1.0)
+        if np.any(t < -tolerance) or np.any(t > self.duration + tolerance):
+            raise ParameterError("Trajectory", "time", f"times within [0, {self.duration:g}] s",
+                                 f"[{t.min():g}, {t.max():g}]")
+
+    def position(self, t: ArrayLike) -> NDArray[np.float64]:
+        """Platform position at times ``t`` [s]; shape ``t.shape + (3,)`` [m]."""
+        t = np.asarray(t, dtype=float)
+        self._check_times(t)
+        if self.kind == "linear":
+            return self.positions[0] + t[..., None] * self.velocities[0]
+        if self.kind == "waypoints":
+            return np.stack([np.interp(t, self.times, self.positions[:, i]) for i in range(3)],
+                            axis=-1)
+        return self._spline(t)
+
+    def velocity(self, t: ArrayLike) -> NDArray[np.float64]:
+        """Platform velocity at times ``t`` [s]; shape ``t.shape + (3,)`` [m/s]."""
+        t = np.asarray(t, dtype=float)
+        self._check_times(t)
+        if self.kind == "linear":
+            return np.broadcast_to(self.velocities[0], t.shape + (3,)).copy()
+        if self.kind == "waypoints":
+            leg = np.clip(np.searchsorted(self.times, t, side="right") - 1, 0,
+                          len(self.times) - 2)
+            return self.velocities[leg]
+        return self._spline(t, 1)
+
+    def attitude_at(self, t: ArrayLike) -> NDArray[np.float64]:
+        """Heading, pitch, roll [rad] at times ``t``; shape ``t.shape + (3,)``.
+
+        Velocity-aligned unless attitude samples were given: heading = atan2(v_y, v_x),
+        pitch = roll = 0.
+        """
+        t = np.asarray(t, dtype=float)
+        if self.attitude is None:
+            velocity = self.velocity(t)
+            heading = np.arctan2(velocity[..., 1], velocity[..., 0])
+            return np.stack([heading, np.zeros_like(heading), np.zeros_like(heading)], -1)
+        self._check_times(t)
+        return np.stack([np.interp(t, self.times, self.attitude[:, i]) for i in range(3)], -1)
+
+    def max_speed(self) -> float:
+        """Largest speed over the knots [m/s]."""
+        return float(np.linalg.norm(self.velocities, axis=1).max())
+
+    def describe(self) -> dict:
+        """A JSON-serialisable description (for provenance attributes)."""
+        out = {"kind": self.kind, "times": self.times.tolist(),
+               "positions": self.positions.tolist(), "velocities": self.velocities.tolist()}
+        if self.attitude is not None:
+            out["attitude_deg"] = np.degrees(self.attitude).tolist()
+        return out

@@ -1,0 +1,210 @@
+"""FMCW radar parameters (paper Table 1), derived values and their validation.
+
+Conventions (``docs/conventions.md``): SI units, sweep duration ``T = 1/PRF`` (duty cycle 1),
+chirp rate ``K = B/T``, fast time centred on the sweep.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Any
+
+from mitsar.errors import ParameterError
+
+SPEED_OF_LIGHT = 299_792_458.0
+"""Speed of light in vacuum [m/s]."""
+
+BOLTZMANN = 1.380_649e-23
+"""Boltzmann constant [J/K]."""
+
+REFERENCE_TEMPERATURE = 290.0
+"""Reference noise temperature T0 [K] of the noise figure."""
+
+
+@dataclass(frozen=True)
+class Radar:
+    """An FMCW SAR sensor: waveform, sampling and antenna (paper Table 1 defaults).
+
+    Parameters
+    ----------
+    carrier_frequency : float
+        Centre frequency f_c of the sweep [Hz].
+    bandwidth : float
+        Swept bandwidth B [Hz].
+    sampling_frequency : float
+        Complex (I/Q) sampling rate f_s of the dechirped signal [Hz].
+    prf : float
+        Sweep repetition frequency [Hz]; the sweep lasts ``T = 1/prf`` (duty cycle 1).
+    max_range : float
+        Largest range the receiver must hold [m]; its beat frequency ``2 K R / c`` must not
+        exceed the Nyquist limit ``f_s / 2`` of complex sampling centred on zero.
+    antenna_width : float
+        Antenna aperture size in elevation d [m].
+    antenna_length : float
+        Antenna aperture size in azimuth l_AZ [m].
+    transmit_power : float
+        Transmitted power P_T [W].
+    noise_figure_db : float or None
+        Receiver noise figure [dB]; ``None`` means a noiseless receiver.
+    azimuth_beamwidth_deg, elevation_beamwidth_deg : float or None
+        Beamwidths [deg]; by default ``lambda / l_AZ`` and ``lambda / d`` (paper Table 1:
+        9 deg and 18 deg).
+
+    Examples
+    --------
+    >>> radar = Radar()
+    >>> round(radar.range_resolution, 4), radar.samples_per_sweep
+    (0.0999, 660)
+    """
+
+    carrier_frequency: float = 94e9
+    bandwidth: float = 1.5e9
+    sampling_frequency: float = 165e3
+    prf: float = 250.0
+    max_range: float = 30.0
+    antenna_width: float = 0.01
+    antenna_length: float = 0.02
+    transmit_power: float = 1e-3
+    noise_figure_db: float | None = None
+    azimuth_beamwidth_deg: float | None = None
+    elevation_beamwidth_deg: float | None = None
+
+    def __post_init__(self) -> None:
+        positive = (
+            "carrier_frequency", "bandwidth", "sampling_frequency", "prf", "max_range",
+            "antenna_width", "antenna_length", "transmit_power",
+        )
+        for name in positive:
+            value = getattr(self, name)
+            if not isinstance(value, int | float) or not math.isfinite(value) or value <= 0:
+                raise ParameterError("Radar", name, "a finite number > 0", value)
+        for name in ("azimuth_beamwidth_deg", "elevation_beamwidth_deg"):
+            value = getattr(self, name)
+            if value is not None and not 0 < value < 180:
+                raise ParameterError("Radar", name, "None or a beamwidth in (0, 180) deg", value)
+        if self.noise_figure_db is not None and not math.isfinite(self.noise_figure_db):
+            raise ParameterError("Radar", "noise_figure_db", "None or a finite dB value",
+                                 self.noise_figure_db)
+        if self.bandwidth >= self.carrier_frequency:
+            raise ParameterError("Radar", "bandwidth", f"< carrier_frequency "
+                                 f"({self.carrier_frequency:g} Hz)", self.bandwidth)
+        if self.samples_per_sweep < 8:
+            raise ParameterError("Radar", "sampling_frequency",
+                                 f">= 8 * prf = {8 * self.prf:g} Hz (at least 8 samples per sweep)",
+                                 self.sampling_frequency)
+        if self.max_beat_frequency > self.sampling_frequency / 2:
+            limit = self.range_for_beat_frequency(self.sampling_frequency / 2)
+            raise ParameterError(
+                "Radar", "max_range",
+                f"<= {limit:.3f} m: its beat frequency 2*K*R/c must stay below the Nyquist "
+                f"limit fs/2 = {self.sampling_frequency / 2:g} Hz (beat frequency at max_range "
+                f"is {self.max_beat_frequency:g} Hz); raise sampling_frequency or lower "
+                "max_range", self.max_range)
+
+    # --- derived values -------------------------------------------------------------------
+    @property
+    def wavelength(self) -> float:
+        """Carrier wavelength lambda = c / f_c [m]."""
+        return SPEED_OF_LIGHT / self.carrier_frequency
+
+    @property
+    def sweep_duration(self) -> float:
+        """Sweep duration T = 1/PRF [s] (duty cycle 1)."""
+        return 1.0 / self.prf
+
+    @property
+    def chirp_rate(self) -> float:
+        """Chirp rate K = B/T [Hz/s]."""
+        return self.bandwidth / self.sweep_duration
+
+    @property
+    def samples_per_sweep(self) -> int:
+        """Number of fast-time samples per sweep N_s = round(f_s T)."""
+        return int(round(self.sampling_frequency * self.sweep_duration))
+
+    @property
+    def range_resolution(self) -> float:
+        """Slant-range resolution c / (2B) [m]."""
+        return SPEED_OF_LIGHT / (2.0 * self.bandwidth)
+
+    @property
+    def max_beat_frequency(self) -> float:
+        """Beat frequency of a static target at ``max_range``: 2 K R_max / c [Hz]."""
+        return self.beat_frequency(self.max_range)
+
+    @property
+    def azimuth_beamwidth(self) -> float:
+        """Azimuth beamwidth [rad]: given, or lambda / l_AZ (paper Table 1)."""
+        if self.azimuth_beamwidth_deg is not None:
+            return math.radians(self.azimuth_beamwidth_deg)
+        return self.wavelength / self.antenna_length
+
+    @property
+    def elevation_beamwidth(self) -> float:
+        """Elevation beamwidth [rad]: given, or lambda / d (paper Table 1)."""
+        if self.elevation_beamwidth_deg is not None:
+            return math.radians(self.elevation_beamwidth_deg)
+        return self.wavelength / self.antenna_width
+
+    @property
+    def antenna_gain(self) -> float:
+        """Boresight gain of a uniform aperture, G = 4 pi A / lambda^2 (unit efficiency).
+
+        When beamwidths are given explicitly the effective aperture follows from them,
+        ``A = lambda^2 / (theta_AZ theta_EL)``, so that pattern and gain stay consistent.
+        """
+        area = (self.wavelength / self.azimuth_beamwidth) * (self.wavelength /
+                                                             self.elevation_beamwidth)
+        return 4.0 * math.pi * area / self.wavelength**2
+
+    @property
+    def noise_power(self) -> float:
+        """Complex noise power per sample k T0 F f_s [W]; zero without a noise figure."""
+        if self.noise_figure_db is None:
+            return 0.0
+        return (BOLTZMANN * REFERENCE_TEMPERATURE * 10 ** (self.noise_figure_db / 10)
+                * self.sampling_frequency)
+
+    def beat_frequency(self, slant_range: float) -> float:
+        """Beat frequency 2 K R / c of a static target at ``slant_range`` [Hz] (paper eq. 1)."""
+        return 2.0 * self.chirp_rate * slant_range / SPEED_OF_LIGHT
+
+    def range_for_beat_frequency(self, beat_frequency: float) -> float:
+        """Slant range c f / (2K) that a beat frequency ``f`` [Hz] maps to [m]."""
+        return SPEED_OF_LIGHT * beat_frequency / (2.0 * self.chirp_rate)
+
+    def doppler_bandwidth(self, speed: float) -> float:
+        """Doppler bandwidth of the azimuth beam at platform ``speed`` [Hz].
+
+        ``B_D = 4 v sin(theta_AZ / 2) / lambda``: the span of ``2 v sin(phi) / lambda``
+        over the beam ``|phi| <= theta_AZ / 2``.
+        """
+        return 4.0 * speed * math.sin(self.azimuth_beamwidth / 2) / self.wavelength
+
+    def check_prf(self, speed: float) -> None:
+        """Refuse a PRF below the Doppler bandwidth of the beam at ``speed`` m/s."""
+        band = self.doppler_bandwidth(speed)
+        if self.prf < band:
+            raise ParameterError(
+                "Radar", "prf",
+                f">= the azimuth Doppler bandwidth 4 v sin(theta_AZ/2)/lambda = {band:.1f} Hz "
+                f"at platform speed {speed:g} m/s (else azimuth aliases); lower the speed to "
+                f"<= {speed * self.prf / band:.3g} m/s or raise the PRF", self.prf)
+
+    # --- serialisation --------------------------------------------------------------------
+    def to_attrs(self) -> dict[str, Any]:
+        """Parameters as a flat dict of ``radar_<name>`` attributes (None dropped)."""
+        return {f"radar_{f.name}": getattr(self, f.name) for f in dataclasses.fields(self)
+                if getattr(self, f.name) is not None}
+
+    @classmethod
+    def from_attrs(cls, attrs: dict[str, Any]) -> Radar:
+        """Inverse of :meth:`to_attrs` (extra attributes are ignored)."""
+        kwargs = {}
+        for f in dataclasses.fields(cls):
+            key = f"radar_{f.name}"
+            if key in attrs:
+                kwargs[f.name] = float(attrs[key])
+        return cls(**kwargs)
