@@ -28,14 +28,18 @@ def _peak(image):
 
 
 def test_drjit_kernel_equals_numpy_reference(raw):
-    """Same sum, two implementations: agree to 1e-9 of the peak (float64 in both)."""
+    """Same sum, two implementations: agree to 1e-6 of the peak.
+
+    Both compute geometry and phase in float64; the kernel evaluates sin/cos of the wrapped
+    phase in float32 (error ~1e-7 rad per term), the reference in float64.
+    """
     grid = SlantGrid(along_track=[0.1, 0.3, 0.02], slant_range=[7.8, 8.2, 0.02])
     fast = mitsar.focus(raw, grid=grid, azimuth_resolution=0.1, window="hamming")
     reference = mitsar.focus(raw, grid=grid, azimuth_resolution=0.1, window="hamming",
                              backend="numpy")
     peak = np.abs(reference["image"].values).max()
     np.testing.assert_allclose(fast["image"].values, reference["image"].values,
-                               atol=1e-9 * peak)
+                               atol=1e-6 * peak)
 
 
 def test_point_target_focuses_at_its_position_with_unit_amplitude(raw):

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import drjit as dr
 import numpy as np
-from drjit.llvm import Float64, UInt32
+from drjit.llvm import Float32, Float64, UInt32
 from numpy.typing import NDArray
 
 from mitsar.backend import require_llvm
@@ -142,7 +142,7 @@ def backproject_drjit(profile: NDArray, frequency: NDArray, radar: Radar, pixels
         "motion": opaque(1.0 if motion_correction else 0.0),
         "half_width": opaque(half_width),
         "bins": dr.opaque(UInt32, bins),
-        "coefficients": [opaque(c) for c in coefficients],
+        "coefficients": [float(c) for c in coefficients],
     }
     real = Float64(np.ascontiguousarray(profile.real).ravel())
     imag = Float64(np.ascontiguousarray(profile.imag).ravel())
@@ -195,12 +195,17 @@ def _bpa_loop(x, y, z, px, py, pz, dx_v, dy_v, dz_v, speed_all, centroid_all, re
                   + dr.gather(Float64, real, flat + 1, active) * fraction)
         v_imag = (dr.gather(Float64, imag, flat, active) * (1 - fraction)
                   + dr.gather(Float64, imag, flat + 1, active) * fraction)
+        # Phase wrapped to one cycle in float64, then evaluated in float32 (error < 1e-6 rad).
         cycles = carrier * delay
-        sin_phase, cos_phase = dr.sincos(2 * dr.pi * (cycles - dr.floor(cycles)))
-        # Azimuth window: cosine series at xi = offset / (2 half_width) (centre 0).
-        xi = offset / (2 * half_width)
-        weight = coefficients[0] + coefficients[1] * dr.cos(2 * dr.pi * xi) \
-            + coefficients[2] * dr.cos(4 * dr.pi * xi) + coefficients[3] * dr.cos(6 * dr.pi * xi)
+        sin_phase, cos_phase = dr.sincos(Float32(2 * dr.pi * (cycles - dr.floor(cycles))))
+        sin_phase, cos_phase = Float64(sin_phase), Float64(cos_phase)
+        # Azimuth window: cosine series at xi = offset / (2 half_width) (centre 0). The
+        # coefficients are literals, so a rectangular window costs nothing.
+        xi = Float32(offset / (2 * half_width))
+        weight = Float64(coefficients[0])
+        for harmonic in range(1, len(coefficients)):
+            if coefficients[harmonic] != 0.0:
+                weight += coefficients[harmonic] * Float64(dr.cos(2 * dr.pi * harmonic * xi))
         weight = dr.select(active, weight, 0.0)
         # value * exp(-j phase)
         acc_real += weight * (v_real * cos_phase + v_imag * sin_phase)
