@@ -34,3 +34,11 @@ class ParameterError(MitsarError, ValueError):
         self.expected = expected
         self.found = found
         super().__init__(f"{where}: parameter '{name}': expected {expected}, found {found!r}")
+
+
+class SceneError(MitsarError):
+    """A Mitsuba scene cannot be loaded or used; the message names the file and element."""
+
+
+class MissingFileError(SceneError, FileNotFoundError):
+    """A scene file, or a file it references (e.g. a PLY mesh), does not exist."""
