@@ -1,0 +1,421 @@
+"""The ``mitsar`` command line: simulate, focus, measure and plot; ``mitsar demo`` for the paper.
+
+::
+
+    mitsar simulate EXPERIMENT.toml -o raw.nc [--overwrite]
+    mitsar range raw.nc -o profile.nc [--window W]
+    mitsar focus raw.nc -o image.nc [-a bpa] [--window W] [--azimuth-resolution M]
+                 [--grid GRID.toml]
+    mitsar metrics image.nc [--target X Y Z] [--islr-extent paper] [--json] [-o metrics.json]
+    mitsar plot FILE -o FIG.png
+    mitsar demo [-o DIR] [--overwrite]
+
+Errors in the input (bad files, invalid parameters) print one message on stderr and exit with
+status 2; ``--debug`` shows the traceback instead. See ``docs/cli.md``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import mitsar
+from mitsar.errors import MitsarError
+
+__all__ = ["build_parser", "main"]
+
+EXIT_USAGE = 2
+"""Exit status for bad input (same as argparse's usage errors)."""
+
+PAPER_TABLE4_BPA = {
+    "range": {"irw_cells": 0.865, "pslr_db": -13.192, "islr_db": -10.686},
+    "azimuth": {"irw_cells": 0.823, "pslr_db": -12.682, "islr_db": -9.695},
+}
+"""Paper Table 4, BPA row (point target on a -20 dB background, means over realisations)."""
+
+DEMO_FILES = {
+    "raw": "raw.nc",
+    "image": "image.nc",
+    "metrics": "metrics.json",
+    "range_figure": "range_compressed.png",
+    "image_figure": "image.png",
+    "cuts_figure": "cuts.png",
+    "histogram_figure": "background_histograms.png",
+}
+"""Files written by ``mitsar demo`` in its output folder."""
+
+
+def _log(args: argparse.Namespace, message: str) -> None:
+    """A progress message on stderr (silenced by ``--quiet``)."""
+    if not getattr(args, "quiet", False):
+        print(message, file=sys.stderr, flush=True)
+
+
+# --- commands -------------------------------------------------------------------------------
+def cmd_simulate(args: argparse.Namespace) -> int:
+    """``mitsar simulate``: experiment file -> raw product."""
+    from mitsar.experiment import load_experiment, run_simulation
+    from mitsar.io import check_writable, save
+
+    check_writable(args.output, args.overwrite)
+    experiment = load_experiment(args.experiment)
+    if args.seed is not None:
+        if args.seed < 0:
+            raise MitsarError(f"--seed: expected an integer >= 0, found {args.seed}")
+        experiment.simulation = dataclasses.replace(experiment.simulation, seed=args.seed)
+        experiment.config.setdefault("simulation", {})["seed"] = args.seed
+    start = time.perf_counter()
+    _log(args, f"simulating {args.experiment} ...")
+    raw = run_simulation(experiment, progress=not args.quiet)
+    save(raw, args.output, overwrite=args.overwrite)
+    _log(args, f"wrote {args.output}: raw product, {raw.sizes['sweep']} sweeps x "
+               f"{raw.sizes['sample']} samples ({time.perf_counter() - start:.1f} s)")
+    return 0
+
+
+def cmd_range(args: argparse.Namespace) -> int:
+    """``mitsar range``: raw product -> range-compressed product."""
+    from mitsar.focus import range_compress
+    from mitsar.io import check_writable, load, save
+
+    check_writable(args.output, args.overwrite)
+    raw = load(args.raw, product="raw")
+    profile = range_compress(raw, window=args.window)
+    save(profile, args.output, overwrite=args.overwrite)
+    _log(args, f"wrote {args.output}: range-compressed product, "
+               f"{profile.sizes['sweep']} sweeps x {profile.sizes['range']} range bins")
+    return 0
+
+
+def _focus_options(args: argparse.Namespace, raw: Any) -> Any:
+    """Focus options: command-line flags over ``--grid`` over the raw's experiment."""
+    from mitsar.experiment import FocusOptions, focus_options_from_config, load_grid
+
+    config = raw.attrs.get("experiment")
+    options = (focus_options_from_config(config, where=f"{args.raw} (experiment)")
+               if config else FocusOptions())
+    changes: dict[str, Any] = {}
+    if args.algorithm is not None:
+        changes["algorithm"] = args.algorithm
+    if args.window is not None:
+        changes["window"] = args.window
+    if args.azimuth_resolution is not None:
+        if not args.azimuth_resolution > 0:
+            raise MitsarError(f"--azimuth-resolution: expected a resolution > 0 m, found "
+                              f"{args.azimuth_resolution}")
+        changes["azimuth_resolution"] = args.azimuth_resolution
+    if args.full_aperture:
+        changes["azimuth_resolution"] = None
+    if args.grid is not None:
+        changes["grid"] = load_grid(args.grid)
+    if args.default_grid:
+        changes["grid"] = None
+    return dataclasses.replace(options, **changes)
+
+
+def cmd_focus(args: argparse.Namespace) -> int:
+    """``mitsar focus``: raw product -> image product."""
+    from mitsar.experiment import run_focus
+    from mitsar.io import check_writable, load, save
+
+    check_writable(args.output, args.overwrite)
+    raw = load(args.raw, product="raw")
+    options = _focus_options(args, raw)
+    start = time.perf_counter()
+    _log(args, f"focusing {args.raw} with {options.algorithm.upper()} ...")
+    image = run_focus(raw, options, progress=not args.quiet)
+    save(image, args.output, overwrite=args.overwrite)
+    shape = " x ".join(f"{image.sizes[d]} {d}" for d in image["image"].dims)
+    _log(args, f"wrote {args.output}: image product, {shape} "
+               f"({time.perf_counter() - start:.1f} s)")
+    return 0
+
+
+def format_metrics(metrics: dict[str, Any]) -> str:
+    """Impulse-response metrics as a small text table."""
+    target = ", ".join(f"{v:.3f}" for v in metrics.get("target", []))
+    lines = [f"target [{target}] m, peak offset {metrics.get('peak_offset_m', float('nan')):.4f}"
+             f" m, ISLR extent {metrics.get('islr_extent')!r}",
+             f"{'':9}{'IRW [m]':>10}{'IRW [cells]':>13}{'PSLR [dB]':>11}{'ISLR [dB]':>11}"]
+    for name in ("range", "azimuth"):
+        m = metrics[name]
+        lines.append(f"{name:9}{m['irw_m']:>10.4f}{m['irw_cells']:>13.3f}"
+                     f"{m['pslr_db']:>11.2f}{m['islr_db']:>11.2f}")
+    if "islr_2d_db" in metrics:
+        lines.append(f"2-D ISLR {metrics['islr_2d_db']:.2f} dB")
+    return "\n".join(lines)
+
+
+def cmd_metrics(args: argparse.Namespace) -> int:
+    """``mitsar metrics``: image product -> IRW, PSLR, ISLR."""
+    from mitsar.experiment import run_metrics
+    from mitsar.io import check_writable, load, to_jsonable, write_json
+
+    if args.output is not None:
+        check_writable(args.output, args.overwrite)
+    image = load(args.image, product="image")
+    extent: str | float | None = args.islr_extent
+    if extent is not None:
+        try:
+            extent = float(extent)
+        except ValueError:
+            pass
+    metrics = to_jsonable(run_metrics(image, target=args.target, islr_extent=extent))
+    if args.output is not None:
+        write_json(metrics, args.output, overwrite=args.overwrite)
+        _log(args, f"wrote {args.output}")
+    print(json.dumps(metrics, indent=2) if args.json else format_metrics(metrics))
+    return 0
+
+
+def cmd_plot(args: argparse.Namespace) -> int:
+    """``mitsar plot``: product file -> figure."""
+    from mitsar.plots import plot_file
+
+    plot_file(args.file, args.output, overwrite=args.overwrite,
+              dynamic_range_db=args.dynamic_range)
+    _log(args, f"wrote {args.output}")
+    return 0
+
+
+def cmd_demo(args: argparse.Namespace) -> int:
+    """``mitsar demo``: the paper's point-target experiment end to end."""
+    from mitsar.experiment import example_path, load_experiment
+    from mitsar.io import ProductFileError, check_writable
+
+    out = Path(args.output)
+    if out.exists() and not out.is_dir():
+        raise ProductFileError(f"{out}: exists and is not a folder")
+    paths = {key: out / name for key, name in DEMO_FILES.items()}
+    if out.is_dir():
+        for path in paths.values():
+            check_writable(path, args.overwrite)
+    experiment = load_experiment(example_path(args.example))
+    out.mkdir(parents=True, exist_ok=True)
+    results = run_demo(experiment, paths, overwrite=args.overwrite, progress=not args.quiet,
+                       log=lambda message: _log(args, message))
+    print(demo_summary(experiment, results, out))
+    return 0
+
+
+def run_demo(experiment: Any, paths: dict[str, Path], overwrite: bool = False,
+             progress: bool = True, log: Any = None) -> dict[str, Any]:
+    """Simulate, focus, measure and plot an experiment, writing ``paths`` (see DEMO_FILES).
+
+    Returns
+    -------
+    dict
+        ``raw`` and ``image`` datasets, ``metrics`` (dict), ``seconds`` per step.
+    """
+    from mitsar.experiment import run_focus, run_metrics, run_simulation
+    from mitsar.io import save, to_jsonable, write_json
+
+    log = log or (lambda message: None)
+    seconds: dict[str, float] = {}
+    clock = time.perf_counter()
+    log("[1/4] simulating raw data ...")
+    raw = run_simulation(experiment, progress=progress)
+    save(raw, paths["raw"], overwrite=overwrite)
+    seconds["simulate"] = time.perf_counter() - clock
+    clock = time.perf_counter()
+    log(f"[2/4] focusing ({experiment.focus.algorithm.upper()}) ...")
+    image = run_focus(raw, experiment.focus, progress=progress)
+    save(image, paths["image"], overwrite=overwrite)
+    seconds["focus"] = time.perf_counter() - clock
+    clock = time.perf_counter()
+    log("[3/4] measuring the impulse response ...")
+    metrics = to_jsonable(run_metrics(image))
+    metrics["paper_table4_bpa"] = PAPER_TABLE4_BPA
+    write_json(metrics, paths["metrics"], overwrite=overwrite)
+    seconds["metrics"] = time.perf_counter() - clock
+    clock = time.perf_counter()
+    log("[4/4] plotting ...")
+    _demo_figures(raw, image, metrics, paths, overwrite)
+    seconds["plots"] = time.perf_counter() - clock
+    return {"raw": raw, "image": image, "metrics": metrics, "seconds": seconds}
+
+
+def _demo_figures(raw: Any, image: Any, metrics: dict[str, Any], paths: dict[str, Path],
+                  overwrite: bool) -> None:
+    """The four demo figures."""
+    import matplotlib.pyplot as plt
+
+    from mitsar.plots import (
+        background_samples,
+        plot_background_histograms,
+        plot_cuts,
+        plot_image,
+        plot_range_compressed,
+        save_figure,
+        target_marks,
+    )
+
+    figure, ax = plt.subplots(figsize=(8, 5), layout="constrained")
+    plot_range_compressed(raw, ax=ax)
+    save_figure(figure, paths["range_figure"], overwrite)
+    figure, ax = plt.subplots(figsize=(7, 6), layout="constrained")
+    plot_image(image, ax=ax, marks=target_marks(image))
+    save_figure(figure, paths["image_figure"], overwrite)
+    figure, axes = plt.subplots(1, 2, figsize=(12, 4.5), layout="constrained")
+    plot_cuts(image, metrics, axes=axes)
+    save_figure(figure, paths["cuts_figure"], overwrite)
+    if "background_reflectivity" in raw:
+        amplitudes, phases = background_samples(raw)
+        figure, axes = plt.subplots(1, 2, figsize=(12, 4.5), layout="constrained")
+        level = raw.attrs.get("background_cell_rcs_db")
+        label = (f"{level:g} dB background, first sweep" if level is not None
+                 else "background, first sweep")
+        plot_background_histograms(amplitudes, phases, axes=axes, label=label)
+        save_figure(figure, paths["histogram_figure"], overwrite)
+
+
+def demo_summary(experiment: Any, results: dict[str, Any], out: Path) -> str:
+    """A short text summary of a demo run."""
+    raw, image, metrics = results["raw"], results["image"], results["metrics"]
+    shape = " x ".join(f"{image.sizes[d]} {d}" for d in image["image"].dims)
+    lines = [f"mitsar demo: {experiment.name or 'experiment'} -> {out}/"]
+    if experiment.description:
+        lines.append(f"  {experiment.description}")
+    lines += [f"  raw:   {raw.sizes['sweep']} sweeps x {raw.sizes['sample']} samples",
+             f"  image: {image.attrs.get('algorithm', '?').upper()}, {shape}", "",
+             format_metrics(metrics), "",
+             "paper Table 4 (BPA, -20 dB background, mean over realisations):",
+             f"{'':9}{'IRW [cells]':>23}{'PSLR [dB]':>11}{'ISLR [dB]':>11}"]
+    for name in ("range", "azimuth"):
+        ref = PAPER_TABLE4_BPA[name]
+        lines.append(f"{name:9}{ref['irw_cells']:>23.3f}{ref['pslr_db']:>11.2f}"
+                     f"{ref['islr_db']:>11.2f}")
+    timing = ", ".join(f"{k} {v:.1f} s" for k, v in results["seconds"].items())
+    lines += ["", f"time: {timing}", "files: " + ", ".join(DEMO_FILES.values())]
+    return "\n".join(lines)
+
+
+# --- parser ---------------------------------------------------------------------------------
+def _add_output(parser: argparse.ArgumentParser, help_text: str, required: bool = True) -> None:
+    parser.add_argument("-o", "--output", required=required, metavar="FILE", help=help_text)
+    parser.add_argument("--overwrite", action="store_true",
+                        help="replace the output if it exists (never replaced otherwise)")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of the ``mitsar`` command."""
+    from mitsar.experiment import ALGORITHMS, ISLR_EXTENTS, WINDOWS
+
+    parser = argparse.ArgumentParser(
+        prog="mitsar", description="FMCW mm-wave SAR simulation and processing "
+        "(Scannapieco et al. 2016). See docs/cli.md.")
+    parser.add_argument("--version", action="version", version=f"mitsar {mitsar.__version__}")
+    common = argparse.ArgumentParser(add_help=False)
+    common.add_argument("--debug", action="store_true",
+                        help="show the full traceback on errors")
+    common.add_argument("-q", "--quiet", action="store_true",
+                        help="no progress bars or messages on stderr")
+    commands = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+
+    sub = commands.add_parser("simulate", parents=[common], help="simulate raw data from a "
+                              "TOML experiment", description="Simulate the raw product of a "
+                              "TOML experiment file (docs/experiments.md).")
+    sub.add_argument("experiment", metavar="EXPERIMENT.toml")
+    _add_output(sub, "raw product to write (.nc)")
+    sub.add_argument("--seed", type=int, help="override [simulation] seed")
+    sub.set_defaults(func=cmd_simulate)
+
+    sub = commands.add_parser("range", parents=[common], help="range-compress raw data",
+                              description="Range-compress a raw product (RVP removed).")
+    sub.add_argument("raw", metavar="RAW.nc")
+    _add_output(sub, "range-compressed product to write (.nc)")
+    sub.add_argument("--window", choices=WINDOWS, default="rect", help="range window")
+    sub.set_defaults(func=cmd_range)
+
+    sub = commands.add_parser("focus", parents=[common], help="focus raw data into an image",
+                              description="Focus a raw product. Options default to the "
+                              "[focus] table of the experiment the raw data came from.")
+    sub.add_argument("raw", metavar="RAW.nc")
+    _add_output(sub, "image product to write (.nc)")
+    sub.add_argument("-a", "--algorithm", choices=ALGORITHMS, help="focusing algorithm")
+    sub.add_argument("--window", choices=WINDOWS, help="range and azimuth window")
+    sub.add_argument("--azimuth-resolution", type=float, metavar="M",
+                     help="processed azimuth resolution [m]")
+    sub.add_argument("--full-aperture", action="store_true",
+                     help="process the whole beam (ignore any azimuth resolution)")
+    sub.add_argument("--grid", metavar="GRID.toml",
+                     help="output grid: a TOML file with a [grid] table (or [focus.grid])")
+    sub.add_argument("--default-grid", action="store_true",
+                     help="use the algorithm's default slant grid (ignore the experiment's)")
+    sub.set_defaults(func=cmd_focus)
+
+    sub = commands.add_parser("metrics", parents=[common], help="IRW, PSLR, ISLR of a target",
+                              description="Impulse-response metrics of a point target.")
+    sub.add_argument("image", metavar="IMAGE.nc")
+    sub.add_argument("--target", type=float, nargs=3, metavar=("X", "Y", "Z"),
+                     help="target world position [m] (default: from the experiment)")
+    sub.add_argument("--islr-extent", metavar="EXTENT",
+                     help=f"ISLR side-lobe extent: {', '.join(ISLR_EXTENTS)} or a number of "
+                     "cells (default: from the experiment, else 'paper')")
+    sub.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    _add_output(sub, "also write the metrics as JSON", required=False)
+    sub.set_defaults(func=cmd_metrics)
+
+    sub = commands.add_parser("plot", parents=[common], help="plot a product file",
+                              description="Plot a product: raw/range-compressed -> range-"
+                              "compressed matrix; image -> image in dB.")
+    sub.add_argument("file", metavar="FILE.nc")
+    _add_output(sub, "figure to write (.png, .pdf, .svg)")
+    sub.add_argument("--dynamic-range", type=float, metavar="DB",
+                     help="colour scale depth below the peak [dB]")
+    sub.set_defaults(func=cmd_plot)
+
+    sub = commands.add_parser("demo", parents=[common], help="run the paper's point-target "
+                              "experiment", description="Simulate, focus and measure the "
+                              "bundled paper experiment; write products, metrics and figures.")
+    sub.add_argument("-o", "--output", default="mitsar-demo", metavar="DIR",
+                     help="output folder (default: mitsar-demo)")
+    sub.add_argument("--overwrite", action="store_true", help="replace existing outputs")
+    sub.add_argument("--example", default="paper_point_target",
+                     help="bundled example to run (default: paper_point_target)")
+    sub.set_defaults(func=cmd_demo)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the ``mitsar`` command line.
+
+    Parameters
+    ----------
+    argv : sequence of str, optional
+        Arguments (default ``sys.argv[1:]``).
+
+    Returns
+    -------
+    int
+        Exit status: 0 on success, 2 for bad input (message on stderr), 130 if interrupted.
+    """
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.func(args) or 0)
+    except KeyboardInterrupt:
+        print("mitsar: interrupted", file=sys.stderr)
+        return 130
+    except NotImplementedError as error:
+        if args.debug:
+            raise
+        detail = f": {error}" if str(error) else ""
+        print(f"mitsar {args.command}: error: not implemented yet{detail} (run with --debug "
+              "for the traceback)", file=sys.stderr)
+        return EXIT_USAGE
+    except (MitsarError, ValueError, OSError) as error:
+        if args.debug:
+            raise
+        print(f"mitsar {args.command}: error: {error}", file=sys.stderr)
+        return EXIT_USAGE
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,205 @@
+"""The ``mitsar`` command line end to end on a tiny experiment."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from mitsar.cli import main
+from mitsar.io import load
+
+# One point target seen over +-0.6 m of track (2.8 s), a small image around it: fast, and wide
+# enough for the +-5-cell ISLR of the paper.
+TINY = """
+name = "tiny"
+[trajectory]
+kind = "linear"
+start = [14.3, 1.4, 4.5]
+velocity = [0.5, 0.0, 0.0]
+duration = 2.8
+[look]
+off_nadir_deg = 55.71
+[[targets]]
+position = [15.0, 8.0, 0.0]
+[simulation]
+seed = 3
+[focus]
+azimuth_resolution = 0.10
+[focus.grid]
+kind = "slant"
+along_track = [0.1, 1.3, 0.02]
+slant_range = [7.39, 8.59, 0.02]
+[metrics]
+islr_extent = "paper"
+"""
+
+# Short track with a small background patch, for the demo's figures (metrics not checked).
+TINY_BACKGROUND = TINY.replace("duration = 2.8", "duration = 0.4").replace(
+    "start = [14.3, 1.4, 4.5]", "start = [14.9, 1.4, 4.5]").replace(
+    "along_track = [0.1, 1.3, 0.02]", "along_track = [-0.5, 0.7, 0.02]").replace(
+    'islr_extent = "paper"', "islr_extent = 2") + """
+[background]
+center = [15.0, 8.0, 0.0]
+size = [0.3, 0.3]
+cell_rcs_db = -20.0
+"""
+
+
+@pytest.fixture(scope="module")
+def products(tmp_path_factory):
+    """simulate -> focus on the tiny experiment, once for the module."""
+    folder = tmp_path_factory.mktemp("cli")
+    experiment = folder / "tiny.toml"
+    experiment.write_text(TINY)
+    raw, image = folder / "raw.nc", folder / "image.nc"
+    assert main(["simulate", str(experiment), "-o", str(raw), "-q"]) == 0
+    assert main(["focus", str(raw), "-o", str(image), "-q"]) == 0
+    return {"folder": folder, "experiment": experiment, "raw": raw, "image": image}
+
+
+def test_simulate_writes_a_raw_product(products):
+    raw = load(products["raw"])
+    assert raw.attrs["product"] == "raw" and raw["raw"].dtype.kind == "c"
+    assert raw.sizes["sweep"] == 700
+    assert json.loads(raw.attrs["experiment"])["name"] == "tiny"
+    assert raw.attrs["experiment_source"] == str(products["experiment"].resolve())
+
+
+def test_focus_uses_the_experiment_focus_table(products):
+    image = load(products["image"])
+    assert image.attrs["product"] == "image" and image.attrs["algorithm"] == "bpa"
+    assert image.sizes["azimuth"] == 61 and image.sizes["range"] == 61
+    assert image.attrs["azimuth_resolution"] == pytest.approx(0.10, rel=0.01)
+    assert "experiment" in image.attrs
+
+
+def test_metrics_json(products, capsys):
+    out = products["folder"] / "metrics.json"
+    assert main(["metrics", str(products["image"]), "--json", "-o", str(out), "-q"]) == 0
+    printed = json.loads(capsys.readouterr().out)
+    assert json.loads(out.read_text()) == printed
+    assert printed["target"] == [15.0, 8.0, 0.0]
+    assert printed["peak_offset_m"] < 0.02
+    for name in ("range", "azimuth"):  # unweighted sinc: 0.8859 cells, -13.26 dB
+        assert printed[name]["irw_cells"] == pytest.approx(0.8859, abs=0.05)
+        assert printed[name]["pslr_db"] < -11.0
+    assert printed["range"]["pslr_db"] == pytest.approx(-13.26, abs=0.5)
+
+
+def test_metrics_table_with_explicit_target(products, capsys):
+    assert main(["metrics", str(products["image"]), "--target", "15", "8", "0",
+                 "--islr-extent", "5"]) == 0
+    text = capsys.readouterr().out
+    assert "IRW [m]" in text and "range" in text and "azimuth" in text
+
+
+def test_plot_raw_and_image(products):
+    for source in ("raw", "image"):
+        figure = products["folder"] / f"{source}.png"
+        assert main(["plot", str(products[source]), "-o", str(figure), "-q"]) == 0
+        assert figure.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_range_command(products):
+    out = products["folder"] / "profile.nc"
+    assert main(["range", str(products["raw"]), "-o", str(out), "-q"]) == 0
+    assert "profile" in load(out)
+
+
+def test_focus_overrides_and_grid_file(products):
+    grid = products["folder"] / "grid.toml"
+    grid.write_text('[grid]\nkind = "slant"\nalong_track = [0.5, 0.9, 0.02]\n'
+                    'slant_range = [7.8, 8.2, 0.02]\n')
+    out = products["folder"] / "image_hamming.nc"
+    assert main(["focus", str(products["raw"]), "-o", str(out), "--window", "hamming",
+                 "--azimuth-resolution", "0.2", "--grid", str(grid), "-q"]) == 0
+    image = load(out)
+    assert image.attrs["window"] == "hamming"
+    assert image.sizes["azimuth"] == 21
+    assert image.attrs["azimuth_resolution"] == pytest.approx(0.2, rel=0.01)
+
+
+def test_no_overwrite_without_flag(products, capsys):
+    before = products["image"].stat().st_mtime_ns
+    code = main(["focus", str(products["raw"]), "-o", str(products["image"]), "-q"])
+    assert code == 2
+    err = capsys.readouterr().err
+    assert "file exists" in err and "--overwrite" in err and "Traceback" not in err
+    assert products["image"].stat().st_mtime_ns == before
+
+
+def test_bad_experiment_exit_code_2(tmp_path, capsys):
+    bad = tmp_path / "bad.toml"
+    bad.write_text(TINY.replace("[look]", "[look]\nsquint = 3.0"))
+    assert main(["simulate", str(bad), "-o", str(tmp_path / "raw.nc")]) == 2
+    err = capsys.readouterr().err
+    assert "parameter 'look.squint'" in err and "did you mean 'squint_deg'" in err
+    assert not (tmp_path / "raw.nc").exists()
+
+
+def test_wrong_product_type(products, capsys):
+    assert main(["focus", str(products["image"]), "-o", str(products["folder"] / "x.nc")]) == 2
+    assert "expected a product of type 'raw'" in capsys.readouterr().err
+
+
+def test_not_a_product_file(tmp_path, capsys):
+    junk = tmp_path / "junk.nc"
+    junk.write_text("hello")
+    assert main(["metrics", str(junk), "--target", "0", "0", "0"]) == 2
+    err = capsys.readouterr().err
+    assert "not a readable netCDF4/HDF5" in err and "Traceback" not in err
+
+
+def test_debug_shows_the_traceback(tmp_path):
+    with pytest.raises(Exception, match="no such file"):
+        main(["focus", str(tmp_path / "missing.nc"), "-o", str(tmp_path / "x.nc"), "--debug"])
+
+
+def test_entry_point_subprocess(tmp_path):
+    """The installed way: python -m mitsar.cli, a bad file, exit status 2, one clean line."""
+    result = subprocess.run(
+        [sys.executable, "-m", "mitsar.cli", "plot", str(tmp_path / "missing.nc"), "-o",
+         str(tmp_path / "fig.png")], capture_output=True, text=True, timeout=120)
+    assert result.returncode == 2
+    assert "no such file" in result.stderr and "Traceback" not in result.stderr
+
+
+def test_demo_on_a_tiny_example(tmp_path, monkeypatch, capsys):
+    examples = tmp_path / "examples"
+    examples.mkdir()
+    (examples / "tiny_background.toml").write_text(TINY_BACKGROUND)
+    monkeypatch.setenv("MITSAR_EXAMPLES", str(examples))
+    out = tmp_path / "demo"
+    assert main(["demo", "-o", str(out), "--example", "tiny_background", "-q"]) == 0
+    summary = capsys.readouterr().out
+    assert "IRW" in summary and "paper Table 4" in summary
+    names = sorted(p.name for p in out.iterdir())
+    assert names == sorted(["raw.nc", "image.nc", "metrics.json", "range_compressed.png",
+                            "image.png", "cuts.png", "background_histograms.png"])
+    # a second run refuses to overwrite, before simulating anything
+    assert main(["demo", "-o", str(out), "--example", "tiny_background", "-q"]) == 2
+    assert "--overwrite" in capsys.readouterr().err
+
+
+def test_metrics_needs_a_target(products, tmp_path, capsys):
+    image = load(products["image"])
+    for key in ("experiment", "experiment_source", "experiment_name"):
+        image.attrs.pop(key, None)
+    from mitsar.io import save
+
+    bare = save(image, tmp_path / "bare.nc")
+    assert main(["metrics", str(bare)]) == 2
+    assert "no target position" in capsys.readouterr().err
+    assert main(["metrics", str(bare), "--target", "15", "8", "0", "-q"]) == 0
+
+
+def test_seed_override(products, tmp_path):
+    out = tmp_path / "raw.nc"
+    assert main(["simulate", str(products["experiment"]), "-o", str(out), "--seed", "5",
+                 "-q"]) == 0
+    raw = load(out)
+    assert raw.attrs["seed"] == 5
+    assert json.loads(raw.attrs["experiment"])["simulation"]["seed"] == 5
