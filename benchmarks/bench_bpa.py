@@ -48,7 +48,7 @@ def main() -> None:
                                   ("numpy", backproject_numpy, 1)):
         start = time.perf_counter()
         for _ in range(repeats):
-            result = kernel(*arguments)  # returns NumPy: the timing includes the sync
+            result, _ = kernel(*arguments)  # returns NumPy: the timing includes the sync
         elapsed = (time.perf_counter() - start) / repeats
         rows.append((name, elapsed, work / elapsed, result))
     print(f"BPA {args.pixels}x{args.pixels} pixels x {len(positions)} sweeps "

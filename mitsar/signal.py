@@ -7,7 +7,7 @@ Convention (``docs/conventions.md``, DESIGN §4): transmit phase ``2 pi (f_c t +
 over the sweep, fast time ``t`` centred on the sweep, dechirp ``s = s_tx conj(s_rx)``. An echo
 with two-way delay ``tau`` then gives
 
-``s(t) = a exp{ j 2 pi [ f_c tau + K tau t - K tau^2 / 2 ] }``                     (paper eq. 1 + RVP)
+``s(t) = a exp{ j 2 pi [ f_c tau + K tau t - K tau^2 / 2 ] }``   (paper eq. 1 with the RVP)
 
 with beat frequency ``K tau`` and residual video phase ``-K tau^2 / 2`` (Meta 2007 eq. 3).
 """

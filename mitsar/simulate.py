@@ -11,16 +11,19 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+import drjit as dr
 import numpy as np
 import xarray as xr
+from drjit.llvm import Float32, Float64, UInt32
 from numpy.typing import NDArray
 from tqdm.auto import tqdm
 
+from mitsar.backend import require_llvm
 from mitsar.errors import ParameterError
 from mitsar.geometry.antenna import two_way_pattern
 from mitsar.geometry.attitude import Look, antenna_frame
 from mitsar.geometry.trajectory import Trajectory
-from mitsar.radar import Radar
+from mitsar.radar import SPEED_OF_LIGHT, Radar
 from mitsar.raw import make_raw_product, sweep_geometry
 from mitsar.signal import (
     dechirped_phase_cycles,
@@ -71,9 +74,10 @@ def _check_inputs(radar: Radar, trajectory: Trajectory, look: Look,
 
 
 def simulate_point_targets(radar: Radar, trajectory: Trajectory, look: Look,
-                           targets: Sequence[PointTarget] = (), background: Background | None = None,
-                           seed: int = 0, *, rvp: bool = True, normalized: bool = False,
-                           pattern: bool = True, noise: bool = False, progress: bool = False,
+                           targets: Sequence[PointTarget] = (),
+                           background: Background | None = None, seed: int = 0, *,
+                           rvp: bool = True, normalized: bool = False, pattern: bool = True,
+                           noise: bool = False, progress: bool = False, backend: str = "drjit",
                            chunk_elements: int = 2**22) -> xr.Dataset:
     """Simulate dechirped FMCW raw data of point targets and a fluctuating background.
 
@@ -97,8 +101,11 @@ def simulate_point_targets(radar: Radar, trajectory: Trajectory, look: Look,
         Add thermal noise ``k T0 F f_s`` per complex sample (needs ``radar.noise_figure_db``).
     progress : bool
         Show a progress bar.
+    backend : {"drjit", "numpy"}
+        The Dr.Jit kernel (one lane per sample, a loop over scatterers) or the NumPy reference.
     chunk_elements : int
-        Bound on sweeps x samples x scatterers evaluated at once (memory).
+        Bound on the lanes (Dr.Jit: sweeps x samples) or on sweeps x samples x scatterers
+        (NumPy) evaluated at once (memory).
 
     Returns
     -------
@@ -116,6 +123,8 @@ def simulate_point_targets(radar: Radar, trajectory: Trajectory, look: Look,
     """
     targets = list(targets)
     _check_inputs(radar, trajectory, look, targets, background)
+    if backend not in ("drjit", "numpy"):
+        raise ParameterError("simulate_point_targets", "backend", "'drjit' or 'numpy'", backend)
     radar.check_prf(trajectory.max_speed())
     if noise and radar.noise_figure_db is None:
         raise ParameterError("simulate_point_targets", "noise",
@@ -149,9 +158,11 @@ def simulate_point_targets(radar: Radar, trajectory: Trajectory, look: Look,
                            background_mode=background.mode,
                            background_cell_rcs_db=background.cell_rcs_db)
 
-    samples = _sum_echoes(radar, trajectory, look, geometry, positions, velocities, reflectivity,
-                          rvp=rvp, normalized=normalized, pattern=pattern, progress=progress,
-                          chunk_elements=chunk_elements)
+    amplitude = _echo_amplitudes(radar, look, geometry, positions, velocities, reflectivity,
+                                 normalized=normalized, pattern=pattern)
+    sum_echoes = _sum_echoes_drjit if backend == "drjit" else _sum_echoes_numpy
+    samples = sum_echoes(radar, trajectory, geometry, positions, velocities, amplitude, rvp=rvp,
+                         progress=progress, chunk_elements=chunk_elements)
     if noise:
         sigma = np.sqrt(radar.noise_power / 2)
         samples += sigma * (rng.standard_normal(samples.shape)
@@ -185,18 +196,14 @@ def simulate_point_targets(radar: Radar, trajectory: Trajectory, look: Look,
     return product
 
 
-def _sum_echoes(radar: Radar, trajectory: Trajectory, look: Look, geometry: dict,
-                positions: NDArray, velocities: NDArray, reflectivity: NDArray, *,
-                rvp: bool, normalized: bool, pattern: bool, progress: bool,
-                chunk_elements: int) -> NDArray[np.complex128]:
-    """Sum the dechirped echoes of all scatterers, chunked over sweeps and scatterers.
+def _echo_amplitudes(radar: Radar, look: Look, geometry: dict, positions: NDArray,
+                     velocities: NDArray, reflectivity: NDArray, *, normalized: bool,
+                     pattern: bool) -> NDArray[np.complex128]:
+    """Complex amplitude of every scatterer in every sweep, shape (sweeps, scatterers).
 
-    Vectorised over (sweep, sample, scatterer); the Python loop runs over chunks only.
+    sqrt(RCS) reflectivity, times the two-way pattern and the radar equation (per unit RCS) at
+    mid-sweep (paper eq. 2).
     """
-    sweeps = len(geometry["slow_time"])
-    times = fast_time(radar)
-    sample_count = len(times)
-    # Per-sweep amplitude: radar equation and two-way pattern at mid-sweep.
     offset = positions[None, :, :] + velocities[None, :, :] * (
         geometry["slow_time"][:, None, None] + radar.sweep_duration / 2) \
         - geometry["position"][:, None, :]
@@ -209,7 +216,25 @@ def _sum_echoes(radar: Radar, trajectory: Trajectory, look: Look, geometry: dict
             directions, frames[:, None], radar.azimuth_beamwidth, radar.elevation_beamwidth))
     if not normalized:
         amplitude = amplitude * radar_equation_amplitude(radar, 1.0, centre_range)
+    return amplitude
 
+
+def _sample_times(radar: Radar, geometry: dict, sweep_slice: slice) -> NDArray:
+    """Absolute time of every sample of the sweeps in ``sweep_slice``, shape (sweeps, N_s)."""
+    return (geometry["slow_time"][sweep_slice, None] + radar.sweep_duration / 2
+            + fast_time(radar)[None, :])
+
+
+def _sum_echoes_numpy(radar: Radar, trajectory: Trajectory, geometry: dict, positions: NDArray,
+                      velocities: NDArray, amplitude: NDArray, *, rvp: bool, progress: bool,
+                      chunk_elements: int) -> NDArray[np.complex128]:
+    """Reference sum of the dechirped echoes, vectorised over (sweep, sample, scatterer).
+
+    The Python loop runs over memory chunks only.
+    """
+    sweeps = len(geometry["slow_time"])
+    times = fast_time(radar)
+    sample_count = len(times)
     samples = np.zeros((sweeps, sample_count), dtype=complex)
     sweeps_per_chunk = max(1, min(sweeps, chunk_elements // sample_count))
     scatterers_per_chunk = max(1, chunk_elements // (sweeps_per_chunk * sample_count))
@@ -218,8 +243,7 @@ def _sum_echoes(radar: Radar, trajectory: Trajectory, look: Look, geometry: dict
     for sweep0, scatterer0 in tqdm(chunks, disable=not progress, desc="simulate", unit="chunk"):
         sweep_slice = slice(sweep0, sweep0 + sweeps_per_chunk)
         scatterer_slice = slice(scatterer0, scatterer0 + scatterers_per_chunk)
-        absolute_time = (geometry["slow_time"][sweep_slice, None] + radar.sweep_duration / 2
-                         + times[None, :])
+        absolute_time = _sample_times(radar, geometry, sweep_slice)
         platform = trajectory.position(absolute_time)
         target = (positions[None, None, scatterer_slice, :]
                   + velocities[None, None, scatterer_slice, :] * absolute_time[..., None, None])
@@ -229,3 +253,66 @@ def _sum_echoes(radar: Radar, trajectory: Trajectory, look: Look, geometry: dict
         samples[sweep_slice] += np.einsum("snm,sm->sn", phasor,
                                           amplitude[sweep_slice, scatterer_slice])
     return samples
+
+
+def _sum_echoes_drjit(radar: Radar, trajectory: Trajectory, geometry: dict, positions: NDArray,
+                      velocities: NDArray, amplitude: NDArray, *, rvp: bool, progress: bool,
+                      chunk_elements: int) -> NDArray[np.complex128]:
+    """Sum of the dechirped echoes as a Dr.Jit kernel: one lane per sample, loop over scatterers.
+
+    Same formulas as :func:`_sum_echoes_numpy` (``mitsar.signal``); geometry and phase in
+    float64, sin/cos of the wrapped phase in float32.
+    """
+    require_llvm()
+    sweeps = len(geometry["slow_time"])
+    times = fast_time(radar)
+    sample_count = len(times)
+    sweeps_per_chunk = max(1, min(sweeps, chunk_elements // sample_count))
+    scatterers = len(positions)
+    scatterer_arrays = [Float64(np.ascontiguousarray(a)) for a in (*positions.T, *velocities.T)]
+    constants = (dr.opaque(Float64, radar.carrier_frequency), dr.opaque(Float64, radar.chirp_rate),
+                 dr.opaque(Float64, 1.0 if rvp else 0.0), dr.opaque(UInt32, scatterers),
+                 dr.opaque(UInt32, sample_count))
+    samples = np.zeros((sweeps, sample_count), dtype=complex)
+    for sweep0 in tqdm(range(0, sweeps, sweeps_per_chunk), disable=not progress,
+                       desc="simulate", unit="chunk"):
+        sweep_slice = slice(sweep0, sweep0 + sweeps_per_chunk)
+        absolute_time = _sample_times(radar, geometry, sweep_slice)
+        platform = trajectory.position(absolute_time).reshape(-1, 3)
+        chunk_amplitude = np.ascontiguousarray(amplitude[sweep_slice])
+        lanes = (Float64(platform[:, 0]), Float64(platform[:, 1]), Float64(platform[:, 2]),
+                 Float64(absolute_time.ravel()), Float64(np.tile(times, len(chunk_amplitude))))
+        real, imag = _echo_loop(*lanes, *scatterer_arrays, Float64(chunk_amplitude.real.ravel()),
+                                Float64(chunk_amplitude.imag.ravel()), *constants)
+        dr.eval(real, imag)
+        samples[sweep_slice] = (np.asarray(real) + 1j * np.asarray(imag)).reshape(-1, sample_count)
+    return samples
+
+
+@dr.syntax
+def _echo_loop(px, py, pz, absolute_time, fast, qx, qy, qz, vx, vy, vz, amp_real,  # noqa: ANN001, ANN202
+               amp_imag, carrier, chirp_rate, rvp, scatterers, sample_count):
+    """Per sample lane: sum over scatterers of a exp{j 2 pi [f_c tau + K tau t - rvp K tau^2/2]}."""
+    two_over_c = 2.0 / SPEED_OF_LIGHT
+    lane = dr.arange(UInt32, dr.width(px))
+    sweep = lane // sample_count
+    acc_real = dr.zeros(Float64, dr.width(px))
+    acc_imag = dr.zeros(Float64, dr.width(px))
+    m = UInt32(0)
+    while m < scatterers:
+        dx = px - (dr.gather(Float64, qx, m) + dr.gather(Float64, vx, m) * absolute_time)
+        dy = py - (dr.gather(Float64, qy, m) + dr.gather(Float64, vy, m) * absolute_time)
+        dz = pz - (dr.gather(Float64, qz, m) + dr.gather(Float64, vz, m) * absolute_time)
+        delay = two_over_c * dr.sqrt(dx * dx + dy * dy + dz * dz)
+        cycles = (carrier * delay + chirp_rate * delay * fast
+                  - rvp * 0.5 * chirp_rate * delay * delay)
+        # Wrapped to one cycle in float64, then sin/cos in float32 (error < 1e-6 rad).
+        sin_phase, cos_phase = dr.sincos(Float32(2 * dr.pi * (cycles - dr.round(cycles))))
+        sin_phase, cos_phase = Float64(sin_phase), Float64(cos_phase)
+        index = sweep * scatterers + m
+        a_real = dr.gather(Float64, amp_real, index)
+        a_imag = dr.gather(Float64, amp_imag, index)
+        acc_real += a_real * cos_phase - a_imag * sin_phase
+        acc_imag += a_real * sin_phase + a_imag * cos_phase
+        m += 1
+    return acc_real, acc_imag

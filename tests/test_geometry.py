@@ -7,7 +7,7 @@ import pytest
 
 import mitsar
 from mitsar.geometry.antenna import one_way_pattern, two_way_pattern
-from mitsar.geometry.attitude import antenna_frame, boresight, body_to_world
+from mitsar.geometry.attitude import antenna_frame, body_to_world, boresight
 
 
 @pytest.mark.parametrize("off_nadir", [0.0, 30.0, 57.0, 90.0])

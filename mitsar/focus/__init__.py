@@ -13,13 +13,13 @@ import xarray as xr
 
 import mitsar
 from mitsar.errors import ParameterError
-from mitsar.focus.bpa import aperture_half_width, backproject_drjit, backproject_numpy
+from mitsar.focus.bpa import aperture_half_width, focus_bpa
 from mitsar.focus.compression import range_compress, range_spectrum
-from mitsar.focus.windows import WINDOWS, window_coefficients
+from mitsar.focus.windows import WINDOWS
 from mitsar.grid import Grid, SlantGrid
 from mitsar.raw import radar_of
 
-ALGORITHMS = ("bpa",)
+ALGORITHMS = ("bpa", "rda", "wda", "fsa")
 
 __all__ = ["focus", "range_compress", "range_spectrum", "ALGORITHMS"]
 
@@ -28,15 +28,18 @@ def focus(raw: xr.Dataset, algorithm: str = "bpa", grid: Grid | dict | None = No
           window: str = "rect", range_window: str | None = None,
           azimuth_resolution: float | None = None, remove_rvp: bool = True,
           motion_correction: bool = True, backend: str = "drjit",
-          range_upsample: int = 16, pixel_chunk: int = 1 << 20) -> xr.Dataset:
+          range_upsample: int = 16, pixel_chunk: int = 1 << 20,
+          algorithm_options: dict | None = None) -> xr.Dataset:
     """Focus a raw product into an image.
 
     Parameters
     ----------
     raw : xarray.Dataset
         Raw product (:mod:`mitsar.raw`).
-    algorithm : {"bpa"}
-        Focusing algorithm.
+    algorithm : {"bpa", "rda", "wda", "fsa"}
+        Focusing algorithm: back-projection (any trajectory, any grid) or the frequency-domain
+        range-Doppler, wavenumber-domain and frequency-scaling algorithms (straight track at
+        constant velocity, slant grids only; see ``docs/focusing.md``).
     grid : SlantGrid, PlaneGrid, PointsGrid, dict or None
         Output grid; a dict is passed to :func:`mitsar.grid.from_dict`; default slant grid.
     window : str
@@ -55,6 +58,9 @@ def focus(raw: xr.Dataset, algorithm: str = "bpa", grid: Grid | dict | None = No
         Zero-padding factor of the range FFT before linear interpolation.
     pixel_chunk : int
         Pixels per kernel launch (memory bound).
+    algorithm_options : dict, optional
+        Options of the frequency-domain algorithms (``rda``: ``src``; ``wda``: ``gate_cells``;
+        ``fsa``: ``upsample``, ``check_aliasing``, ``src``); see ``docs/focusing.md``.
 
     Returns
     -------
@@ -84,30 +90,51 @@ def focus(raw: xr.Dataset, algorithm: str = "bpa", grid: Grid | dict | None = No
     radar = radar_of(raw)
     half_width = aperture_half_width(radar, azimuth_resolution)
     nominal_azimuth = radar.wavelength / (4 * half_width)
+    if "reference_range" in raw.variables:
+        # Recorded data referenced to a scene point (mitsar.realdata): back-projection only.
+        from mitsar.realdata import focus_referenced
+
+        if algorithm != "bpa":
+            raise ParameterError("focus", "algorithm", "'bpa' for recorded data referenced to "
+                                 "a scene point (raw has 'reference_range')", algorithm)
+        values, layout, extra = focus_referenced(
+            raw, grid, azimuth_resolution=azimuth_resolution, window=window,
+            range_window=range_window, range_upsample=range_upsample)
+        return make_image_product(raw, values, layout, {
+            "algorithm": algorithm, "window": window, "range_window": range_window,
+            "azimuth_resolution_requested": -1.0 if azimuth_resolution is None
+            else float(azimuth_resolution), "rvp_removed": 0, "motion_correction": 0, **extra})
     layout = grid.resolve(raw, radar, nominal_azimuth)
-    pixels = layout["position"].reshape(-1, 3)
+    if algorithm != "bpa":
+        from mitsar.focus.spectral import focus_frequency_domain
 
-    frequency, profile = range_spectrum(
-        raw["raw"].values, radar, window=range_window, remove_rvp=remove_rvp,
-        upsample=range_upsample, rvp_present=bool(raw.attrs.get("rvp", 1)))
-    positions = raw["platform_position"].values
-    velocities = raw["platform_velocity"].values
-    speed = np.linalg.norm(velocities, axis=-1)
-    centroid = np.einsum("si,si->s", raw["boresight"].values, velocities) / np.where(
-        speed > 0, speed, 1.0)
-    kernel = backproject_drjit if backend == "drjit" else backproject_numpy
-    coefficients = window_coefficients(window)
-    values = np.concatenate([
-        kernel(profile, frequency, radar, pixels[start:start + pixel_chunk], positions,
-               velocities, centroid, half_width, coefficients, motion_correction)
-        for start in range(0, len(pixels), pixel_chunk)])
-
-    return make_image_product(raw, values.reshape(layout["position"].shape[:2]), layout, {
+        values, coverage, extra = focus_frequency_domain(
+            raw, algorithm, layout, half_width=half_width, window=window,
+            range_window=range_window, remove_rvp_flag=remove_rvp,
+            motion_correction=motion_correction, options=algorithm_options)
+        product = make_image_product(raw, values, layout, {
+            "algorithm": algorithm, "window": window, "range_window": range_window,
+            "azimuth_resolution_requested": -1.0 if azimuth_resolution is None
+            else float(azimuth_resolution),
+            "rvp_removed": int(remove_rvp), "motion_correction": int(motion_correction),
+            "backend": "numpy", **extra})
+        product["coverage"] = (layout["dims"], coverage, {
+            "long_name": "fraction of the full processed aperture that contributed", "units": "1"})
+        return product
+    values, coverage, extra = focus_bpa(
+        raw, layout["position"].reshape(-1, 3), half_width=half_width, window=window,
+        range_window=range_window, remove_rvp=remove_rvp, motion_correction=motion_correction,
+        backend=backend, range_upsample=range_upsample, pixel_chunk=pixel_chunk)
+    shape = layout["position"].shape[:2]
+    product = make_image_product(raw, values.reshape(shape), layout, {
         "algorithm": algorithm, "window": window, "range_window": range_window,
         "azimuth_resolution_requested": -1.0 if azimuth_resolution is None
         else float(azimuth_resolution),
         "rvp_removed": int(remove_rvp), "motion_correction": int(motion_correction),
-        "backend": backend})
+        "backend": backend, **extra})
+    product["coverage"] = (layout["dims"], coverage.reshape(shape), {
+        "long_name": "fraction of the full processed aperture that contributed", "units": "1"})
+    return product
 
 
 def make_image_product(raw: xr.Dataset, image: np.ndarray, layout: dict,

@@ -10,11 +10,24 @@ For every pixel x and sweep k (antenna at ``p_k``, velocity ``v_k`` at mid-sweep
    ``exp(-j 2 pi f_c tau)``, the phase the sweep-centred range FFT leaves (paper eq. 1);
 4. it is weighted by an azimuth window over the processed aperture and summed.
 
-The processed aperture is set by the azimuth resolution rho: sweeps whose direction sine
-``u = v_hat . (x - p_k) / R`` lies within ``lambda / (4 rho)`` of the Doppler centroid
-``u_c = v_hat . l_hat`` contribute, an angular span ``lambda / (2 rho)`` (rectangular spectrum:
-IRW = 0.886 rho). The result is normalised by the sum of weights, so a point of amplitude a
-focuses to a peak of about a.
+The processed azimuth band is set by the azimuth resolution rho: direction sines
+``u = v_hat . (x - p_k) / R`` within ``h = lambda / (4 rho)`` of the Doppler centroid
+``u_c = v_hat . l_hat``, an angular span ``lambda / (2 rho)`` (rectangular spectrum:
+IRW = 0.886 rho). Two ways to select it:
+
+* ``"doppler"`` (straight tracks, the default there): band-pass every range bin in azimuth
+  frequency, ``|f_eta - f_DC| <= v / (2 rho)`` with the azimuth window across the band, then
+  back-project every sweep that sees the pixel inside the beam. The band is then selected by
+  the *echo's* Doppler, as RDA/WDA/FSA do, and a point focuses to a clean sinc with no phase
+  curvature across the image.
+* ``"pixel"`` (any trajectory): weight each sweep by the window at the *pixel's* direction sine.
+  The magnitude of a point response is the same sinc, but its phase carries a quadratic term
+  ``2 pi d^2 / (lambda R)`` in the azimuth offset d (the aperture slides with the pixel), so
+  the image is not band-limited to 1/rho and must be sampled finely.
+
+The result is normalised by the weight a full aperture would have (:func:`normalise_image`),
+so a point of amplitude a focuses to a peak of about a, and pixels whose aperture runs off the
+end of the track fade instead of being amplified.
 
 The kernel is one Dr.Jit loop over sweeps with one lane per pixel (float64 phases), compiled once
 and cached: per-acquisition values are opaque. A NumPy reference (:func:`backproject_numpy`)
@@ -25,12 +38,17 @@ from __future__ import annotations
 
 import drjit as dr
 import numpy as np
+import xarray as xr
 from drjit.llvm import Float32, Float64, UInt32
 from numpy.typing import NDArray
 
 from mitsar.backend import require_llvm
-from mitsar.focus.windows import evaluate_window
+from mitsar.errors import ParameterError
+from mitsar.focus.compression import range_spectrum
+from mitsar.focus.windows import evaluate_window, window_coefficients
+from mitsar.grid import track_frame
 from mitsar.radar import SPEED_OF_LIGHT, Radar
+from mitsar.raw import radar_of
 
 
 def doppler_geometry(pixels: NDArray, positions: NDArray, velocities: NDArray
@@ -71,7 +89,7 @@ def aperture_half_width(radar: Radar, azimuth_resolution: float | None) -> float
 def backproject_numpy(profile: NDArray, frequency: NDArray, radar: Radar, pixels: NDArray,
                       positions: NDArray, velocities: NDArray, centroid_sine: NDArray,
                       half_width: float, window: NDArray,
-                      motion_correction: bool = True) -> NDArray[np.complex128]:
+                      motion_correction: bool = True) -> tuple[NDArray, NDArray]:
     """Reference back-projection in NumPy (same sum as the Dr.Jit kernel, all in memory).
 
     Parameters
@@ -93,7 +111,10 @@ def backproject_numpy(profile: NDArray, frequency: NDArray, radar: Radar, pixels
 
     Returns
     -------
-    ndarray, shape (P,)
+    weighted_sum : ndarray, shape (P,), complex
+        Sum of the weighted, de-rotated profile values.
+    total_weight : ndarray, shape (P,)
+        Sum of the weights (see :func:`normalise_image`).
     """
     slant_range, sine, delay_rate = doppler_geometry(pixels, positions, velocities)
     delay = 2.0 * slant_range / SPEED_OF_LIGHT
@@ -112,14 +133,13 @@ def backproject_numpy(profile: NDArray, frequency: NDArray, radar: Radar, pixels
     offset = sine - centroid_sine[:, None]
     weight = np.where(valid & (np.abs(offset) <= half_width),
                       evaluate_window(window, offset / (2 * half_width) + 0.5), 0.0)
-    total = weight.sum(axis=0)
-    return (weight * value).sum(axis=0) / np.where(total > 0, total, 1.0)
+    return (weight * value).sum(axis=0), weight.sum(axis=0)
 
 
 def backproject_drjit(profile: NDArray, frequency: NDArray, radar: Radar, pixels: NDArray,
                       positions: NDArray, velocities: NDArray, centroid_sine: NDArray,
                       half_width: float, window: NDArray,
-                      motion_correction: bool = True) -> NDArray[np.complex128]:
+                      motion_correction: bool = True) -> tuple[NDArray, NDArray]:
     """Back-projection as one Dr.Jit kernel (parameters as :func:`backproject_numpy`)."""
     require_llvm()
     sweeps, bins = profile.shape
@@ -149,9 +169,7 @@ def backproject_drjit(profile: NDArray, frequency: NDArray, radar: Radar, pixels
     result_real, result_imag, total = _bpa_kernel(
         Float64(pixels[:, 0]), Float64(pixels[:, 1]), Float64(pixels[:, 2]),
         sweep_arrays, real, imag, dr.opaque(UInt32, sweeps), constants)
-    total_np = np.asarray(total)
-    image = np.asarray(result_real) + 1j * np.asarray(result_imag)
-    return image / np.where(total_np > 0, total_np, 1.0)
+    return np.asarray(result_real) + 1j * np.asarray(result_imag), np.asarray(total)
 
 
 def _bpa_kernel(x: Float64, y: Float64, z: Float64, sweep_arrays: list, real: Float64,
@@ -213,3 +231,165 @@ def _bpa_loop(x, y, z, px, py, pz, dx_v, dy_v, dz_v, speed_all, centroid_all, re
         total += weight
         k += 1
     return acc_real, acc_imag, total
+
+
+def full_aperture_weight(pixels: NDArray, origin: NDArray, direction: NDArray, speed: float,
+                         prf: float, centroid_sine: float, half_width: float,
+                         window_mean: float) -> NDArray:
+    """Sum of azimuth weights a pixel would get from a complete processed aperture.
+
+    Along a straight track the direction sine changes per metre by ``(1 - u^2)^(3/2) / r``
+    (r: distance of the pixel from the track), so the aperture ``|u - u_c| <= h`` holds
+    ``2 h r PRF / (v (1 - u_c^2)^(3/2))`` sweeps, each weighted on average by the window mean.
+    For curved tracks this uses the mean track line (an approximation).
+    """
+    offset = pixels - origin
+    along = offset @ direction
+    distance = np.linalg.norm(offset - along[:, None] * direction, axis=-1)
+    return (window_mean * 2 * half_width * distance * prf
+            / (speed * (1 - centroid_sine**2) ** 1.5))
+
+
+def band_coverage(pixels: NDArray, origin: NDArray, direction: NDArray, track_length: float,
+                  centroid_sine: float, half_width: float) -> NDArray:
+    """Fraction of a pixel's processed aperture that lies on a straight track, in [0, 1].
+
+    The aperture of the band ``|u - u_c| <= h`` is centred where ``u = u_c``, at along-track
+    ``a - u_c r / sqrt(1 - u_c^2)``, and is ``2 h r / (1 - u_c^2)^(3/2)`` long (r: distance of
+    the pixel from the track); the track runs from 0 to ``track_length``.
+    """
+    offset = pixels - origin
+    along = offset @ direction
+    distance = np.linalg.norm(offset - along[:, None] * direction, axis=-1)
+    centre = along - centroid_sine * distance / np.sqrt(1 - centroid_sine**2)
+    half_length = half_width * distance / (1 - centroid_sine**2) ** 1.5
+    overlap = (np.minimum(centre + half_length, track_length)
+               - np.maximum(centre - half_length, 0.0))
+    return np.clip(overlap / np.where(half_length > 0, 2 * half_length, 1.0), 0.0, 1.0)
+
+
+def normalise_image(weighted_sum: NDArray, total_weight: NDArray,
+                    full_weight: NDArray) -> tuple[NDArray, NDArray]:
+    """Divide by the larger of the actual and the full-aperture weight.
+
+    Returns
+    -------
+    image : ndarray
+        Focused values; a complete aperture gives the echo amplitude.
+    coverage : ndarray
+        Fraction of the full aperture that contributed, in [0, 1].
+    """
+    norm = np.maximum(total_weight, full_weight)
+    image = weighted_sum / np.where(norm > 0, norm, 1.0)
+    coverage = np.clip(total_weight / np.where(full_weight > 0, full_weight, 1.0), 0.0, 1.0)
+    return image, coverage
+
+
+def doppler_bandpass(profile: NDArray, prf: float, centroid_frequency: float, bandwidth: float,
+                     window: NDArray, pad_sweeps: int) -> NDArray:
+    """Band-pass range profiles in azimuth frequency around the Doppler centroid.
+
+    Keeps ``|f_eta - f_DC| <= B_a / 2`` (wrapped into the PRF), weighted by the window across
+    the band; zero-padding by ``pad_sweeps`` on both ends keeps the filter from wrapping the
+    track's ends onto each other.
+
+    Parameters
+    ----------
+    profile : ndarray, shape (S, F)
+    prf : float
+        Sweep rate [Hz].
+    centroid_frequency : float
+        Doppler centroid f_DC = 2 v u_c / lambda [Hz].
+    bandwidth : float
+        Processed Doppler bandwidth B_a = v / rho [Hz].
+    window : ndarray
+        Cosine-series window coefficients.
+    pad_sweeps : int
+    """
+    sweeps = profile.shape[0]
+    size = sweeps + 2 * pad_sweeps
+    padded = np.zeros((size, profile.shape[1]), dtype=complex)
+    padded[pad_sweeps:pad_sweeps + sweeps] = profile
+    frequency = np.fft.fftfreq(size, 1.0 / prf)
+    offset = (frequency - centroid_frequency + prf / 2) % prf - prf / 2
+    gain = evaluate_window(window, offset / bandwidth + 0.5)
+    filtered = np.fft.ifft(np.fft.fft(padded, axis=0) * gain[:, None], axis=0)
+    return filtered[pad_sweeps:pad_sweeps + sweeps]
+
+
+def is_uniform_straight_track(raw: xr.Dataset, tolerance: float = 1e-6) -> bool:
+    """Whether all sweeps share one velocity (straight track at constant speed)."""
+    velocities = raw["platform_velocity"].values
+    speed = np.linalg.norm(velocities, axis=-1).max()
+    return bool(np.ptp(velocities, axis=0).max() <= tolerance * max(speed, 1e-12))
+
+
+def focus_bpa(raw: xr.Dataset, pixels: NDArray, *, half_width: float, window: str,
+              range_window: str, remove_rvp: bool, motion_correction: bool, backend: str,
+              range_upsample: int, pixel_chunk: int, band_selection: str | None = None
+              ) -> tuple[NDArray, NDArray, dict]:
+    """Back-project a raw product onto pixels (see the module docstring).
+
+    Parameters
+    ----------
+    raw : xarray.Dataset
+        Raw product.
+    pixels : ndarray, shape (P, 3)
+        Pixel world positions [m].
+    half_width : float
+        Processed half width in direction sine, ``lambda / (4 rho)``.
+    band_selection : {"doppler", "pixel"} or None
+        How the processed band is selected; default "doppler" for straight tracks with a
+        processed band narrower than the beam, "pixel" otherwise.
+
+    Returns
+    -------
+    values : ndarray, shape (P,), complex
+    coverage : ndarray, shape (P,)
+    extra : dict
+        Processing attributes for the image product.
+    """
+    radar = radar_of(raw)
+    beam_half_width = aperture_half_width(radar, None)
+    straight = is_uniform_straight_track(raw)
+    if band_selection is None:
+        band_selection = "doppler" if straight and half_width < beam_half_width else "pixel"
+    if band_selection == "doppler" and not straight:
+        raise ParameterError("focus", "band_selection",
+                             "'pixel' for a curved track or a varying speed", band_selection)
+    frequency, profile = range_spectrum(
+        raw["raw"].values, radar, window=range_window, remove_rvp=remove_rvp,
+        upsample=range_upsample, rvp_present=bool(raw.attrs.get("rvp", 1)))
+    positions = raw["platform_position"].values
+    velocities = raw["platform_velocity"].values
+    speed = np.linalg.norm(velocities, axis=-1)
+    centroid = np.einsum("si,si->s", raw["boresight"].values, velocities) / np.where(
+        speed > 0, speed, 1.0)
+    coefficients = window_coefficients(window)
+    mean_speed, mean_centroid = float(speed.mean()), float(centroid.mean())
+    if band_selection == "doppler":
+        bandwidth = 4 * mean_speed * half_width / radar.wavelength  # B_a = v / rho
+        centroid_frequency = 2 * mean_speed * mean_centroid / radar.wavelength
+        pad = int(np.ceil(4 * radar.prf / bandwidth))
+        profile = doppler_bandpass(profile, radar.prf, centroid_frequency, bandwidth,
+                                   coefficients, pad)
+        kernel_half_width, kernel_window = beam_half_width, window_coefficients("rect")
+    else:
+        kernel_half_width, kernel_window = half_width, coefficients
+    kernel = backproject_drjit if backend == "drjit" else backproject_numpy
+    sums, totals = zip(*[
+        kernel(profile, frequency, radar, pixels[start:start + pixel_chunk], positions,
+               velocities, centroid, kernel_half_width, kernel_window, motion_correction)
+        for start in range(0, len(pixels), pixel_chunk)], strict=True)
+    origin, direction, _ = track_frame(raw)
+    geometry = (pixels, origin, direction, mean_speed, radar.prf, mean_centroid)
+    signal_weight = full_aperture_weight(*geometry, half_width, float(coefficients[0]))
+    total = np.concatenate(totals)
+    if band_selection == "doppler":
+        track_length = float((positions[-1] - origin) @ direction)
+        coverage = band_coverage(pixels, origin, direction, track_length, mean_centroid,
+                                 half_width)
+        values = np.concatenate(sums) / np.where(signal_weight > 0, signal_weight, 1.0)
+    else:
+        values, coverage = normalise_image(np.concatenate(sums), total, signal_weight)
+    return values, coverage, {"band_selection": band_selection}

@@ -3,7 +3,8 @@
 The one-way power pattern is the product of two sinc^2 factors (Balanis, uniform
 rectangular aperture), one per aperture axis,
 
-``P(u_az, u_el) = sinc^2(u_az / beta_az) * sinc^2(u_el / beta_el)``,  ``sinc(x) = sin(pi x)/(pi x)``,
+``P(u_az, u_el) = sinc^2(u_az / beta_az) * sinc^2(u_el / beta_el)``,
+``sinc(x) = sin(pi x) / (pi x)``,
 
 where ``u`` are the direction sines along the aperture's azimuth and elevation axes and
 ``beta = lambda / D`` is the beamwidth of paper Table 1 (first null at ``u = beta``, -3.9 dB
