@@ -90,12 +90,18 @@ class SimulationOptions:
         Unit amplitude per unit RCS (paper eq. 1) instead of the radar equation.
     noise : bool
         Add receiver noise (needs ``radar.noise_figure_db``).
+    scatterer_density : float or None
+        Surface scatterers per m^2 for a scene (default: the integrator's, >= 9 per cell).
+    orders : list of int or None
+        Path orders kept from a scene (0: direct backscatter); default all.
     """
 
     seed: int = 0
     rvp: bool = True
     normalized: bool = False
     noise: bool = False
+    scatterer_density: float | None = None
+    orders: tuple[int, ...] | None = None
 
 
 @dataclass(frozen=True)
@@ -576,9 +582,15 @@ def _parse_simulation(t: _Table | None) -> SimulationOptions:
     """``[simulation]``: seed, rvp, normalized, noise."""
     if t is None:
         return SimulationOptions()
+    orders = t.numbers("orders", 1, None)
+    if orders is not None and any(o != int(o) or o < 0 for o in orders):
+        raise t.error("orders", "integers >= 0 (0: direct backscatter)", orders)
     options = SimulationOptions(seed=t.integer("seed", 0, ge=0), rvp=t.boolean("rvp", True),
                                 normalized=t.boolean("normalized", False),
-                                noise=t.boolean("noise", False))
+                                noise=t.boolean("noise", False),
+                                scatterer_density=t.number("scatterer_density", None,
+                                                           unit="1/m^2", gt=0),
+                                orders=None if orders is None else tuple(int(o) for o in orders))
     t.finish()
     return options
 
@@ -873,17 +885,25 @@ def run_simulation(experiment: Experiment, progress: bool = False) -> xr.Dataset
         The raw product; its attributes also record the experiment (``experiment``, a JSON
         string of :attr:`Experiment.config`) and its source file (``experiment_source``).
     """
-    if experiment.scene is not None:
-        raise MitsarError(f"{experiment.source or 'experiment'}: key 'scene' "
-                          f"({experiment.scene}): scene-based simulation is not available yet; "
-                          "remove 'scene' to simulate the point targets and background")
-    from mitsar.simulate import simulate_point_targets
-
     options = experiment.simulation
-    raw = simulate_point_targets(
-        experiment.radar, experiment.trajectory, experiment.look, experiment.targets,
-        background=experiment.background, seed=options.seed, rvp=options.rvp,
-        normalized=options.normalized, noise=options.noise, progress=progress)
+    if experiment.scene is not None:
+        from mitsar.trace import simulate_scene
+
+        if options.noise:
+            raise MitsarError(f"{experiment.source or 'experiment'}: key 'simulation.noise': "
+                              "thermal noise is not available with a scene yet")
+        raw = simulate_scene(
+            experiment.radar, experiment.trajectory, experiment.look, experiment.scene,
+            targets=experiment.targets, background=experiment.background, seed=options.seed,
+            density=options.scatterer_density, orders=options.orders, rvp=options.rvp,
+            normalized=options.normalized, progress=progress)
+    else:
+        from mitsar.simulate import simulate_point_targets
+
+        raw = simulate_point_targets(
+            experiment.radar, experiment.trajectory, experiment.look, experiment.targets,
+            background=experiment.background, seed=options.seed, rvp=options.rvp,
+            normalized=options.normalized, noise=options.noise, progress=progress)
     raw.attrs["experiment"] = json.dumps(experiment.config)
     if experiment.source is not None:
         raw.attrs["experiment_source"] = str(experiment.source)

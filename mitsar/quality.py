@@ -35,6 +35,8 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import fft as sp_fft
 from scipy import ndimage
 
+from mitsar.grid import equivalent_position
+
 __all__ = [
     "ISLR_EXTENTS",
     "band_fill_db",
@@ -828,7 +830,8 @@ def measure_impulse_response(
         "islr_db"}``; ``islr_2d_db`` (main lobe: rectangle spanned by the null-to-null main lobes
         of the two cuts; sidelobes: the rest of the extent box or chip); ``peak_position`` (world
         position at the fractional peak index, m), ``peak_index`` (fractional (dim0, dim1)
-        index), ``peak_offset_m`` (distance from the peak to ``target``, m), ``peak_db``
+        index), ``peak_offset_m`` (distance from the peak to ``target``, m; on a slant grid to
+        the target's equivalent position on the grid), ``peak_db``
         (20 log10 |peak|, amplitude unit of the image), ``islr_extent``, ``chip_cells`` and
         ``upsample`` (values used).
 
@@ -862,7 +865,9 @@ def measure_impulse_response(
             f"(chip_cells={chip_cells:g}); raise chip_cells"
         )
     search_m = SEARCH_CELLS * cell if search_radius_m is None else float(search_radius_m)
-    target = np.asarray(target, dtype=float).reshape(3)
+    # On a slant grid a world point images where its (along-track, slant-range) coordinates
+    # put it, which need not be on the grid's half-plane (mitsar.grid.equivalent_position).
+    target = equivalent_position(image, np.asarray(target, dtype=float).reshape(3))
     pixel = _peak_pixel(geometry, target, search_m)
 
     # Chip of ± chip_cells around the peak (one pixel more, as the peak may be half a pixel off),
