@@ -297,6 +297,21 @@ def demo_summary(experiment: Any, results: dict[str, Any], out: Path) -> str:
 
 
 # --- parser ---------------------------------------------------------------------------------
+def cmd_ambiguity(args: argparse.Namespace) -> int:
+    """``mitsar ambiguity``: gradient-method maps of one or more trajectories."""
+    from mitsar.ambiguity import run_ambiguity_experiment
+
+    _log(args, f"ambiguity maps of {args.experiment} ...")
+    summary = run_ambiguity_experiment(args.experiment, args.output, overwrite=args.overwrite,
+                                       figures=False if args.no_figures else None,
+                                       progress=not args.quiet)
+    if summary.get("comparison_table"):
+        print(summary["comparison_table"])
+    for name in summary.get("files", []):
+        _log(args, f"wrote {name}")
+    return 0
+
+
 def _add_output(parser: argparse.ArgumentParser, help_text: str, required: bool = True) -> None:
     parser.add_argument("-o", "--output", required=required, metavar="FILE", help=help_text)
     parser.add_argument("--overwrite", action="store_true",
@@ -380,6 +395,16 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_argument("--example", default="paper_point_target",
                      help="bundled example to run (default: paper_point_target)")
     sub.set_defaults(func=cmd_demo)
+
+    sub = commands.add_parser("ambiguity", parents=[common], help="resolution and ambiguity "
+                              "maps of a trajectory", description="Resolution and ambiguity "
+                              "maps by the gradient method (docs/ambiguity.md); several "
+                              "trajectories in one file are compared side by side.")
+    sub.add_argument("experiment", metavar="AMBIGUITY.toml")
+    sub.add_argument("-o", "--output", required=True, metavar="DIR", help="output folder")
+    sub.add_argument("--overwrite", action="store_true", help="replace existing outputs")
+    sub.add_argument("--no-figures", action="store_true", help="write products only")
+    sub.set_defaults(func=cmd_ambiguity)
     return parser
 
 

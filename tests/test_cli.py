@@ -226,3 +226,16 @@ def test_scene_experiment_traces_and_focuses(tmp_path, capsys):
     metrics = json.loads(capsys.readouterr().out)
     assert metrics["peak_offset_m"] < 0.01
     assert metrics["range"]["irw_cells"] == pytest.approx(0.886, abs=0.01)
+
+
+def test_ambiguity_command_compares_trajectories(tmp_path, capsys):
+    """``mitsar ambiguity`` on the bundled two-trajectory example writes its products."""
+    from mitsar.experiment import example_path
+
+    assert main(["ambiguity", str(example_path("ambiguity_box_obstacle")), "-o",
+                 str(tmp_path), "--no-figures", "-q"]) == 0
+    table = capsys.readouterr().out
+    assert "| floor |" in table
+    assert (tmp_path / "comparison.nc").exists() and (tmp_path / "summary.json").exists()
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["files"]
