@@ -20,7 +20,7 @@ properties; it does not import Mitsuba.
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from typing import Any
 
 from mitsar.errors import ParameterError
@@ -109,3 +109,28 @@ def parse_vector3(value: Any, where: str, name: str) -> tuple[float, float, floa
     if len(vec) != 3 or not all(abs(v) < float("inf") for v in vec):
         raise ParameterError(where, name, expected, value)
     return vec  # type: ignore[return-value]
+
+
+class PerVariant:
+    """A plugin class made once per Mitsuba variant.
+
+    Python plugin classes derive from the variant's ``mi.BSDF`` or ``mi.SamplingIntegrator``,
+    so each variant needs its own; calling the instance returns the active variant's class.
+
+    Parameters
+    ----------
+    factory : callable
+        Creates the class for the active variant.
+    """
+
+    def __init__(self, factory: Callable[[], type]) -> None:
+        self._factory = factory
+        self._classes: dict[str, type] = {}
+
+    def __call__(self) -> type:
+        import mitsuba as mi
+
+        variant = mi.variant()
+        if variant not in self._classes:
+            self._classes[variant] = self._factory()
+        return self._classes[variant]

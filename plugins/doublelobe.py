@@ -47,7 +47,7 @@ import mitsuba as mi
 from mitsar import doublelobe as dl
 from mitsar.doublelobe import DoubleLobe
 
-from . import plugin_where, read_properties
+from . import PerVariant, plugin_where, read_properties
 
 PLUGIN_NAME = "doublelobe"
 """XML type name."""
@@ -293,15 +293,8 @@ def _make_class() -> type:
     return DoubleLobeBSDF
 
 
-_CLASSES: dict[str, type] = {}
-
-
-def bsdf_class() -> type:
-    """The BSDF class for the active variant (created once per variant)."""
-    variant = mi.variant()
-    if variant not in _CLASSES:
-        _CLASSES[variant] = _make_class()
-    return _CLASSES[variant]
+bsdf_class = PerVariant(_make_class)
+"""The BSDF class for the active variant (created once per variant)."""
 
 
 def register() -> None:

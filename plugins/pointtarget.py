@@ -30,7 +30,7 @@ import mitsuba as mi
 
 from mitsar.errors import ParameterError
 
-from . import parse_vector3, plugin_where, read_properties
+from . import PerVariant, parse_vector3, plugin_where, read_properties
 
 PLUGIN_NAME = "pointtarget"
 """XML type name."""
@@ -100,15 +100,8 @@ def _make_class() -> type:
     return PointTargetBSDF
 
 
-_CLASSES: dict[str, type] = {}
-
-
-def bsdf_class() -> type:
-    """The BSDF class for the active variant (created once per variant)."""
-    variant = mi.variant()
-    if variant not in _CLASSES:
-        _CLASSES[variant] = _make_class()
-    return _CLASSES[variant]
+bsdf_class = PerVariant(_make_class)
+"""The BSDF class for the active variant (created once per variant)."""
 
 
 def register() -> None:
