@@ -40,7 +40,7 @@ islr_extent = "paper"
 TINY_BACKGROUND = TINY.replace("duration = 2.8", "duration = 0.4").replace(
     "start = [14.3, 1.4, 4.5]", "start = [14.9, 1.4, 4.5]").replace(
     "along_track = [0.1, 1.3, 0.02]", "along_track = [-0.5, 0.7, 0.02]").replace(
-    'islr_extent = "paper"', "islr_extent = 2") + """
+    'islr_extent = "paper"', 'islr_extent = "chip"') + """
 [background]
 center = [15.0, 8.0, 0.0]
 size = [0.3, 0.3]

@@ -57,12 +57,12 @@ def test_range_metrics_match_the_unweighted_sinc(absorbing):
 def test_azimuth_resolution_follows_the_processed_aperture(absorbing):
     """The 10 cm processed band gives IRW 0.886 x 0.10 m and sinc sidelobes.
 
-    5% on the IRW and 0.5 dB on the PSLR: the echo's azimuth spectrum is not flat over the
-    band (a chirp cut off by the start of the flight 0.2 m before broadside, which ripples its
-    spectrum by a few percent), measured here at 0.857 cells.
+    2% on the IRW and 0.5 dB on the PSLR: the echo's azimuth spectrum is not quite flat over
+    the band (the chirp is cut off by the start of the flight 0.2 m before broadside), measured
+    here at 0.897 cells; on a long centred track the same processing gives 0.8866.
     """
     metrics = absorbing["azimuth"]
-    assert metrics["irw_m"] == pytest.approx(0.886 * 0.10, rel=0.05)
+    assert metrics["irw_m"] == pytest.approx(0.886 * 0.10, rel=0.02)
     assert metrics["pslr_db"] == pytest.approx(-13.26, abs=0.5)
 
 
