@@ -100,10 +100,13 @@ def focus(raw: xr.Dataset, algorithm: str = "bpa", grid: Grid | dict | None = No
         values, layout, extra = focus_referenced(
             raw, grid, azimuth_resolution=azimuth_resolution, window=window,
             range_window=range_window, range_upsample=range_upsample)
-        return make_image_product(raw, values, layout, {
+        product = make_image_product(raw, values, layout, {
             "algorithm": algorithm, "window": window, "range_window": range_window,
             "azimuth_resolution_requested": -1.0 if azimuth_resolution is None
             else float(azimuth_resolution), "rvp_removed": 0, "motion_correction": 0, **extra})
+        product["coverage"] = (layout["dims"], np.ones(values.shape), {
+            "long_name": "fraction of the full processed aperture that contributed", "units": "1"})
+        return product
     layout = grid.resolve(raw, radar, nominal_azimuth)
     if algorithm != "bpa":
         from mitsar.focus.spectral import focus_frequency_domain
