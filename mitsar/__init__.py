@@ -13,6 +13,7 @@ from mitsar.geometry.trajectory import Trajectory  # noqa: E402
 from mitsar.io import load, save  # noqa: E402
 from mitsar.quality import measure_impulse_response  # noqa: E402
 from mitsar.radar import Radar  # noqa: E402
+from mitsar.realdata import raw_from_arrays, read_gotcha, read_raw  # noqa: E402
 from mitsar.simulate import simulate_point_targets  # noqa: E402
 from mitsar.targets import Background, PointTarget  # noqa: E402
 from mitsar.trace import histogram_to_raw_product, simulate_scene, trace  # noqa: E402
@@ -20,5 +21,6 @@ from mitsar.trace import histogram_to_raw_product, simulate_scene, trace  # noqa
 __all__ = [
     "Background", "Look", "MitsarError", "ParameterError", "PointTarget", "Radar", "Trajectory",
     "boresight", "focus", "grid", "histogram_to_raw_product", "load", "measure_impulse_response",
-    "range_compress", "save", "simulate_point_targets", "simulate_scene", "trace",
+    "range_compress", "raw_from_arrays", "read_gotcha", "read_raw", "save",
+    "simulate_point_targets", "simulate_scene", "trace",
 ]

@@ -258,3 +258,82 @@ def run_montecarlo(experiment_path: str | os.PathLike, realisations: int,
     ``out_dir/summary.txt`` (:func:`format_table`); returns the summary.
     """
     return run(experiment_path, realisations, algorithms, out_dir=out_dir, resume=resume)
+
+
+def realisation_cuts(experiment: Any, algorithm: str = "bpa", realisations: int = 5,
+                     first_seed: int | None = None) -> dict[str, Any]:
+    """Range and azimuth cuts through the target for a few realisations and the nominal case.
+
+    The nominal response is the experiment without its background (absorbing background);
+    each realisation is the experiment with seed ``first_seed + i`` (paper Figs. 8-9).
+
+    Returns
+    -------
+    dict
+        ``range_offset`` and ``azimuth_offset`` [m] axes; ``nominal`` and ``realisations``
+        (list) of dicts with ``range`` and ``azimuth`` cuts in dB relative to the nominal peak;
+        ``seeds``.
+    """
+    from mitsar.experiment import Experiment, load_experiment, run_focus, run_simulation
+    from mitsar.grid import equivalent_position
+
+    if not isinstance(experiment, Experiment):
+        experiment = load_experiment(experiment)
+    target = experiment.metrics_target()
+    if target is None:
+        raise ParameterError("montecarlo", "target", "a [metrics] target or a [[targets]] entry",
+                             None)
+    first_seed = experiment.simulation.seed if first_seed is None else int(first_seed)
+    focus_options = dataclasses.replace(experiment.focus, algorithm=algorithm)
+
+    def cuts(exp: Any) -> tuple[dict, xr.Dataset]:
+        image = run_focus(run_simulation(exp), focus_options)
+        if image.attrs.get("grid_kind") != "slant":
+            raise ParameterError("montecarlo", "focus.grid.kind", "a slant grid for the cuts",
+                                 image.attrs.get("grid_kind"))
+        where = equivalent_position(image, target)
+        distance = np.linalg.norm(image["position"].values - where, axis=-1)
+        row, col = np.unravel_index(np.argmin(distance), distance.shape)
+        magnitude = np.abs(image["image"].values)
+        return {"range": magnitude[row, :], "azimuth": magnitude[:, col]}, image
+
+    nominal, image = cuts(dataclasses.replace(experiment, background=None))
+    peak = max(nominal["range"].max(), 1e-300)
+    row_axis = image["azimuth"].values - image["azimuth"].values[np.argmax(nominal["azimuth"])]
+    col_axis = image["range"].values - image["range"].values[np.argmax(nominal["range"])]
+    seeds = [first_seed + i for i in range(realisations)]
+    drawn = []
+    for seed in tqdm(seeds, desc=f"cuts {algorithm}", unit="realisation", leave=False):
+        exp = dataclasses.replace(experiment, simulation=dataclasses.replace(
+            experiment.simulation, seed=seed))
+        drawn.append(cuts(exp)[0])
+
+    def decibel(cut: dict) -> dict:
+        return {k: 20 * np.log10(np.maximum(v, 1e-300) / peak) for k, v in cut.items()}
+
+    return {"range_offset": col_axis, "azimuth_offset": row_axis, "nominal": decibel(nominal),
+            "realisations": [decibel(c) for c in drawn], "seeds": seeds, "algorithm": algorithm}
+
+
+def plot_realisation_cuts(cuts: dict[str, Any], path: str | os.PathLike,
+                          overwrite: bool = False) -> Path:
+    """Figure like paper Figs. 8-9: cuts of several realisations over the nominal response."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from mitsar.plots import save_figure
+
+    figure, axes = plt.subplots(1, 2, figsize=(11, 4), constrained_layout=True)
+    for ax, direction in zip(axes, DIRECTIONS, strict=True):
+        offset = cuts[f"{direction}_offset"]
+        for seed, cut in zip(cuts["seeds"], cuts["realisations"], strict=True):
+            ax.plot(offset, cut[direction], lw=0.8, alpha=0.8, label=f"seed {seed}")
+        ax.plot(offset, cuts["nominal"][direction], "k", lw=1.8, label="nominal (absorbing)")
+        ax.set(xlabel=f"{direction} offset [m]", ylabel="dB (nominal peak = 0)",
+               title=f"{cuts['algorithm'].upper()}: {direction} cut", ylim=(-45, 3),
+               xlim=(max(offset.min(), -1.0), min(offset.max(), 1.0)))
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=7)
+    return save_figure(figure, path, overwrite=overwrite)

@@ -239,3 +239,17 @@ def test_ambiguity_command_compares_trajectories(tmp_path, capsys):
     assert (tmp_path / "comparison.nc").exists() and (tmp_path / "summary.json").exists()
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert summary["files"]
+
+
+def test_montecarlo_command_resumes_and_plots(tmp_path, capsys):
+    """``mitsar montecarlo`` writes the table, resumes a finished run, and plots the cuts."""
+    experiment = tmp_path / "tiny_background.toml"
+    experiment.write_text(TINY_BACKGROUND)
+    out = tmp_path / "mc"
+    arguments = ["montecarlo", str(experiment), "-o", str(out), "-n", "2", "-a", "bpa", "-q"]
+    assert main(arguments + ["--cuts", "1"]) == 0
+    assert "(2 realisations, seeds 3..4)" in capsys.readouterr().out
+    assert (out / "summary.nc").exists() and (out / "cuts_bpa.png").stat().st_size > 0
+    record = (out / "montecarlo.json").read_text()
+    assert main(arguments + ["--cuts", "0"]) == 0  # resumed: nothing new to compute
+    assert (out / "montecarlo.json").read_text() == record
