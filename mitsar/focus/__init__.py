@@ -90,6 +90,11 @@ def focus(raw: xr.Dataset, algorithm: str = "bpa", grid: Grid | dict | None = No
     radar = radar_of(raw)
     half_width = aperture_half_width(radar, azimuth_resolution)
     nominal_azimuth = radar.wavelength / (4 * half_width)
+    processing = {"algorithm": algorithm, "window": window, "range_window": range_window,
+                  "azimuth_resolution_requested": -1.0 if azimuth_resolution is None
+                  else float(azimuth_resolution),
+                  "rvp_removed": int(remove_rvp), "motion_correction": int(motion_correction),
+                  "backend": backend}
     if "reference_range" in raw.variables:
         # Recorded data referenced to a scene point (mitsar.realdata): back-projection only.
         from mitsar.realdata import focus_referenced
@@ -100,49 +105,36 @@ def focus(raw: xr.Dataset, algorithm: str = "bpa", grid: Grid | dict | None = No
         values, layout, extra = focus_referenced(
             raw, grid, azimuth_resolution=azimuth_resolution, window=window,
             range_window=range_window, range_upsample=range_upsample)
-        product = make_image_product(raw, values, layout, {
-            "algorithm": algorithm, "window": window, "range_window": range_window,
-            "azimuth_resolution_requested": -1.0 if azimuth_resolution is None
-            else float(azimuth_resolution), "rvp_removed": 0, "motion_correction": 0, **extra})
-        product["coverage"] = (layout["dims"], np.ones(values.shape), {
-            "long_name": "fraction of the full processed aperture that contributed", "units": "1"})
-        return product
-    layout = grid.resolve(raw, radar, nominal_azimuth)
-    if algorithm != "bpa":
+        coverage = np.ones(values.shape)
+        extra = {"rvp_removed": 0, "motion_correction": 0, "backend": "numpy", **extra}
+    elif algorithm != "bpa":
         from mitsar.focus.spectral import focus_frequency_domain
 
+        layout = grid.resolve(raw, radar, nominal_azimuth)
         values, coverage, extra = focus_frequency_domain(
             raw, algorithm, layout, half_width=half_width, window=window,
             range_window=range_window, remove_rvp_flag=remove_rvp,
             motion_correction=motion_correction, options=algorithm_options)
-        product = make_image_product(raw, values, layout, {
-            "algorithm": algorithm, "window": window, "range_window": range_window,
-            "azimuth_resolution_requested": -1.0 if azimuth_resolution is None
-            else float(azimuth_resolution),
-            "rvp_removed": int(remove_rvp), "motion_correction": int(motion_correction),
-            "backend": "numpy", **extra})
-        product["coverage"] = (layout["dims"], coverage, {
-            "long_name": "fraction of the full processed aperture that contributed", "units": "1"})
-        return product
-    values, coverage, extra = focus_bpa(
-        raw, layout["position"].reshape(-1, 3), half_width=half_width, window=window,
-        range_window=range_window, remove_rvp=remove_rvp, motion_correction=motion_correction,
-        backend=backend, range_upsample=range_upsample, pixel_chunk=pixel_chunk)
+        extra = {"backend": "numpy", **extra}
+    else:
+        layout = grid.resolve(raw, radar, nominal_azimuth)
+        values, coverage, extra = focus_bpa(
+            raw, layout["position"].reshape(-1, 3), half_width=half_width, window=window,
+            range_window=range_window, remove_rvp=remove_rvp,
+            motion_correction=motion_correction, backend=backend,
+            range_upsample=range_upsample, pixel_chunk=pixel_chunk)
     shape = layout["position"].shape[:2]
-    product = make_image_product(raw, values.reshape(shape), layout, {
-        "algorithm": algorithm, "window": window, "range_window": range_window,
-        "azimuth_resolution_requested": -1.0 if azimuth_resolution is None
-        else float(azimuth_resolution),
-        "rvp_removed": int(remove_rvp), "motion_correction": int(motion_correction),
-        "backend": backend, **extra})
-    product["coverage"] = (layout["dims"], coverage.reshape(shape), {
-        "long_name": "fraction of the full processed aperture that contributed", "units": "1"})
-    return product
+    return make_image_product(raw, np.reshape(values, shape), layout, {**processing, **extra},
+                              coverage=np.reshape(coverage, shape))
 
 
-def make_image_product(raw: xr.Dataset, image: np.ndarray, layout: dict,
-                       processing: dict) -> xr.Dataset:
-    """Assemble the image product from focused values and a resolved grid layout."""
+def make_image_product(raw: xr.Dataset, image: np.ndarray, layout: dict, processing: dict,
+                       coverage: np.ndarray | None = None) -> xr.Dataset:
+    """Assemble the image product from focused values and a resolved grid layout.
+
+    ``coverage`` (same shape as ``image``) is the fraction of the full processed aperture that
+    contributed to each pixel (ones when omitted).
+    """
     dims = layout["dims"]
     product = xr.Dataset(
         {"image": (dims, image, {"long_name": "focused complex image"}),
@@ -160,4 +152,6 @@ def make_image_product(raw: xr.Dataset, image: np.ndarray, layout: dict,
         raw_seed=raw.attrs.get("seed", -1), raw_config=raw.attrs.get("config", "{}"))
     for key, value in {**layout["attrs"], **processing}.items():
         product.attrs[key] = json.dumps(value) if isinstance(value, dict) else value
+    product["coverage"] = (dims, np.ones(image.shape) if coverage is None else coverage, {
+        "long_name": "fraction of the full processed aperture that contributed", "units": "1"})
     return product
