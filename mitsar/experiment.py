@@ -94,6 +94,9 @@ class SimulationOptions:
         Surface scatterers per m^2 for a scene (default: the integrator's, >= 9 per cell).
     orders : list of int or None
         Path orders kept from a scene (0: direct backscatter); default all.
+    max_depth, rays, ray_cover, ghosts, plane_normal, slab_width
+        Multipath options of a scene (:func:`mitsar.trace.trace`); ``None``: the scene
+        integrator's (default: direct backscatter only, 3D).
     """
 
     seed: int = 0
@@ -102,6 +105,18 @@ class SimulationOptions:
     noise: bool = False
     scatterer_density: float | None = None
     orders: tuple[int, ...] | None = None
+    max_depth: int | None = None
+    rays: int | None = None
+    ray_cover: float | None = None
+    ghosts: bool | None = None
+    plane_normal: tuple[float, float, float] | None = None
+    slab_width: float | None = None
+
+    def multipath(self) -> dict[str, Any]:
+        """The multipath keyword arguments of :func:`mitsar.trace.simulate_scene`."""
+        return {"max_depth": self.max_depth, "rays": self.rays, "ray_cover": self.ray_cover,
+                "ghosts": self.ghosts, "plane_normal": self.plane_normal,
+                "slab_width": self.slab_width}
 
 
 @dataclass(frozen=True)
@@ -590,7 +605,13 @@ def _parse_simulation(t: _Table | None) -> SimulationOptions:
                                 noise=t.boolean("noise", False),
                                 scatterer_density=t.number("scatterer_density", None,
                                                            unit="1/m^2", gt=0),
-                                orders=None if orders is None else tuple(int(o) for o in orders))
+                                orders=None if orders is None else tuple(int(o) for o in orders),
+                                max_depth=t.integer("max_depth", None, ge=1),
+                                rays=t.integer("rays", None, ge=1),
+                                ray_cover=t.number("ray_cover", None, unit="beamwidths", gt=0),
+                                ghosts=t.boolean("ghosts", None),
+                                plane_normal=t.vector("plane_normal", 3, None),
+                                slab_width=t.number("slab_width", None, unit="m", gt=0))
     t.finish()
     return options
 
@@ -896,7 +917,7 @@ def run_simulation(experiment: Experiment, progress: bool = False) -> xr.Dataset
             experiment.radar, experiment.trajectory, experiment.look, experiment.scene,
             targets=experiment.targets, background=experiment.background, seed=options.seed,
             density=options.scatterer_density, orders=options.orders, rvp=options.rvp,
-            normalized=options.normalized, progress=progress)
+            normalized=options.normalized, progress=progress, **options.multipath())
     else:
         from mitsar.simulate import simulate_point_targets
 

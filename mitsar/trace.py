@@ -1,17 +1,19 @@
 """Ray-traced acquisitions: scene -> range histograms -> raw (DESIGN §2, §5.4, §5.5).
 
 :func:`trace` runs the Mitsuba ``radar`` integrator (``mitsar/plugins/radar.py``) over every
-sweep of an acquisition and returns the *histogram product*; :func:`histogram_to_raw_product`
-turns it into the raw product (one inverse FFT per sweep), and :func:`simulate_scene` does both
-while streaming over sweep chunks, optionally adding analytic point targets and a background
-from :func:`mitsar.simulate_point_targets`.
+sweep of an acquisition -- direct backscatter and, with ``max_depth > 1``, multipath by shooting
+and bouncing rays (``docs/multipath.md``) -- and returns the *histogram product*;
+:func:`histogram_to_raw_product` turns it into the raw product (one inverse FFT per sweep),
+:func:`trace_paths` returns the path log of some rays of one sweep (ray-geometry figures), and
+:func:`simulate_scene` traces and synthesises while streaming over sweep chunks, optionally
+adding analytic point targets and a background from :func:`mitsar.simulate_point_targets`.
 
 Histogram product
 -----------------
 ``histogram`` (sweep, order, bin) complex
     Sum of the deposits ``a exp{j 2 pi (f_c tau_0 - K tau_0^2/2 + phi)}`` at each apparent range
     bin [sqrt(W)]. ``order`` is the number of specular reflections on the path (0: direct
-    backscatter; only order 0 is traced yet).
+    backscatter; 1: e.g. a mirror; 2: dihedral; 3: trihedral), ``0 .. max_depth - 1``.
 ``apparent_range`` (bin) [m]
     ``(k_0 + j) dr``, ``dr`` = range cell / ``bins_per_cell`` (:mod:`mitsar.histogram`).
 ``slow_time``, ``platform_position``, ``platform_velocity``, ``boresight``, ``attitude``
@@ -20,8 +22,9 @@ attributes
     ``radar_*``, ``look_*``, ``product = "histogram"``, ``rvp``, ``normalized``, ``seed``,
     ``scatterer_count``, ``point_target_count``, ``scatterer_density``, ``bins_per_cell``,
     ``histogram_first_index``, ``acquisition_sweeps``, ``integrator`` (JSON), ``scene``,
-    ``traced_pairs``, ``traced_candidate_pairs``, ``traced_shadow_rays``, ``traced_launches``
-    (work counters), provenance.
+    ``traced_pairs``, ``traced_candidate_pairs``, ``traced_shadow_rays``, ``traced_launches``,
+    ``traced_rays``, ``traced_segments``, ``traced_captures`` (work counters), ``backscatter``,
+    ``receiver_offset``, ``rays_per_sweep``, provenance.
 """
 
 from __future__ import annotations
@@ -45,7 +48,7 @@ from mitsar.raw import look_of, make_raw_product, radar_of, sweep_geometry
 from mitsar.signal import sweep_count
 from mitsar.targets import Background, PointTarget
 
-__all__ = ["histogram_to_raw_product", "simulate_scene", "trace"]
+__all__ = ["histogram_to_raw_product", "simulate_scene", "trace", "trace_paths"]
 
 
 # --------------------------------------------------------------------------------------------
@@ -58,7 +61,9 @@ class _Run:
     def __init__(self, where: str, radar: Radar, trajectory: Trajectory, look: Look, scene: Any,
                  density: float | None, seed: int | None, sweeps: Any, chunk_lanes: int | None,
                  bins_per_cell: int | None, beam_cull: float | None,
-                 scene_params: dict | None) -> None:
+                 scene_params: dict | None, multipath: dict | None = None,
+                 receiver_offset: Any = None, receiver_look: Look | None = None,
+                 backscatter: bool = True) -> None:
         from mitsar.scene import load_scene, register_plugins
 
         if not isinstance(radar, Radar):
@@ -76,22 +81,40 @@ class _Run:
         register_plugins()
         import mitsuba as mi
 
-        from mitsar.plugins.radar import range_limits
+        from mitsar.plugins.radar import empty_scatterers, make_setup, range_limits
 
         self.scene_name = scene if isinstance(scene, str | os.PathLike) else "<mitsuba.Scene>"
         self.scene = load_scene(scene, **(scene_params or {}))
         self.integrator = _radar_integrator(self.scene, mi)
         self.config = self.integrator.config.replace(
             where, scatterer_density=density, seed=seed, chunk_lanes=chunk_lanes,
-            bins_per_cell=bins_per_cell, beam_cull=beam_cull)
+            bins_per_cell=bins_per_cell, beam_cull=beam_cull, **(multipath or {}))
         self.radar, self.trajectory, self.look = radar, trajectory, look
         self.total = total
         self.geometry = sweep_geometry(radar, trajectory, look, total)
         self.frames = antenna_frame(look, *self.geometry["attitude"].T)
-        self.scatterers = self.integrator.scatterers(self.scene, self.config.density(radar),
-                                                     self.config.seed)
+        if receiver_look is not None and not isinstance(receiver_look, Look):
+            raise ParameterError(where, "receiver_look", "None or a mitsar.Look", receiver_look)
+        rx_frames = (None if receiver_look is None
+                     else antenna_frame(receiver_look, *self.geometry["attitude"].T))
+        self.setup = make_setup(radar, self.frames, self.config, receiver_offset, rx_frames)
+        self.backscatter = bool(backscatter)
+        if self.setup.bistatic and self.backscatter:
+            raise ParameterError(where, "backscatter", "False with a bistatic receiver (direct "
+                                 "backscatter is traced monostatically only)", backscatter)
+        self.receiver_look = receiver_look
+        if self.backscatter:
+            self.scatterers = self.integrator.scatterers(self.scene,
+                                                         self.config.density(radar),
+                                                         self.config.seed)
+        else:  # multipath only: no surface scatterers to sample
+            self.scatterers = empty_scatterers(self.config.density(radar), self.config.seed)
         low, high = range_limits(self.scatterers, self.geometry["position"],
                                  trajectory.max_speed(), radar, trajectory.duration)
+        if self.config.max_depth > 1:
+            low, high = _multipath_limits(self.scene, self.geometry["position"], low, high,
+                                          radar, trajectory.max_speed(), self.config.max_depth,
+                                          self.setup.receiver_offset)
         self.grid = hg.bin_grid(radar, low, high, self.config.bins_per_cell)
         self.ranges = hg.bin_ranges(radar, *self.grid, self.config.bins_per_cell)
 
@@ -100,7 +123,7 @@ class _Run:
         return self.integrator.trace_histograms(
             self.scene, self.geometry, self.radar, self.frames, self.scatterers, self.grid,
             sweeps=self.sweeps, config=self.config, rvp=rvp, normalized=normalized,
-            progress=progress)
+            progress=progress, setup=self.setup, backscatter=self.backscatter)
 
     def attrs(self) -> dict[str, Any]:
         return {"seed": int(self.config.seed), "scatterer_count": self.scatterers.surface_count,
@@ -111,12 +134,37 @@ class _Run:
                 "integrator": self.config.to_dict(), "scene": str(self.scene_name),
                 **{f"traced_{key}": int(value)
                    for key, value in self.integrator.statistics.items()},
+                "backscatter": int(self.backscatter),
+                "receiver_offset": [float(v) for v in self.setup.receiver_offset],
+                "rays_per_sweep": 0 if self.setup.rays is None else len(self.setup.rays),
                 "trajectory_kind": self.trajectory.kind,
                 "trajectory_straight": int(self.trajectory.is_straight),
                 "config": {"trajectory": self.trajectory.describe()}}
 
     def geometry_of(self, sweeps: NDArray) -> dict[str, NDArray]:
         return {key: value[sweeps] for key, value in self.geometry.items()}
+
+
+def _multipath_limits(scene: Any, positions: NDArray, low: float, high: float, radar: Radar,
+                      max_speed: float, max_depth: int, receiver_offset: NDArray
+                      ) -> tuple[float, float]:
+    """Widen the apparent-range limits for multipath paths.
+
+    An image path of ``k <= max_depth - 1`` reflections has ``k + 1`` segments, each no longer
+    than the diagonal ``D`` of the box holding the scene and the antennas, so its half length is
+    at most ``max_depth D / 2``. The grid stops at the radar's ``max_range`` (beat frequencies
+    beyond it are outside the receiver's band), so longer paths are dropped.
+    """
+    box = scene.bbox()
+    lo = np.minimum(np.array([float(v) for v in box.min]), positions.min(axis=0))
+    hi = np.maximum(np.array([float(v) for v in box.max]), positions.max(axis=0))
+    lo, hi = lo - np.abs(receiver_offset), hi + np.abs(receiver_offset)
+    diagonal = float(np.linalg.norm(hi - lo))
+    margin = (radar.carrier_frequency / radar.chirp_rate) * 2.0 * max_speed \
+        + 2 * radar.range_resolution
+    far = min(0.5 * max_depth * diagonal, radar.max_range) + margin
+    near = 0.5 * float(np.linalg.norm(receiver_offset)) - margin
+    return min(low, near), max(high, far)
 
 
 def _select_sweeps(where: str, sweeps: Any, total: int) -> NDArray[np.int64]:
@@ -162,7 +210,12 @@ def trace(radar: Radar, trajectory: Trajectory, look: Look, scene: Any, *,
           density: float | None = None, seed: int | None = None, sweeps: Any = None,
           chunk_lanes: int | None = None, bins_per_cell: int | None = None,
           beam_cull: float | None = None, rvp: bool = True, normalized: bool = False,
-          scene_params: dict | None = None, progress: bool = False) -> xr.Dataset:
+          scene_params: dict | None = None, progress: bool = False,
+          max_depth: int | None = None, rays: int | None = None,
+          ray_cover: float | None = None, capture: str | None = None,
+          ghosts: bool | None = None, plane_normal: Any = None,
+          slab_width: float | None = None, receiver_offset: Any = None,
+          receiver_look: Look | None = None, backscatter: bool = True) -> xr.Dataset:
     """Ray-trace an acquisition of a Mitsuba scene into range histograms.
 
     Parameters
@@ -194,6 +247,32 @@ def trace(radar: Radar, trajectory: Trajectory, look: Look, scene: Any, *,
         ``{"rcs": 2.0}`` for the canned ``point_target``.
     progress : bool
         Show a progress bar.
+    max_depth : int, optional
+        Hits per ray, the paper's N_HITS (default 1: direct backscatter only). ``k > 1`` turns
+        on multipath with up to ``k - 1`` specular reflections (paper: 3 in 2D, 4 for the
+        trihedral's three reflections); the ``order`` axis then has ``k`` entries.
+    rays : int, optional
+        Multipath rays per sweep (default 4096; 2D mode: the size of the fan).
+    ray_cover : float, optional
+        Half-width of the ray grid in beamwidths (default 1: the main lobe to the first nulls).
+    capture : {"tent", "box"}, optional
+        Ray-tube capture kernel (default ``"tent"``; :mod:`mitsar.multipath`).
+    ghosts : bool, optional
+        Bistatic double-lobe scattering back to the receiver at every hit after the first
+        (default False, as the paper).
+    plane_normal : array_like, optional
+        2D mode: rays in the plane through the antenna containing the boresight with this
+        normal (e.g. ``[1, 0, 0]`` for the paper's y-z analyses), surface scatterers in a slab
+        of ``slab_width`` around it.
+    slab_width : float, optional
+        Width of the 2D mode's scatterer slab [m] (default 0.1, the azimuth cell).
+    receiver_offset : array_like, optional
+        Bistatic receiver at the transmitter's position plus this world-frame offset [m]
+        (default: monostatic). Needs ``backscatter=False``.
+    receiver_look : Look, optional
+        Mounting of the bistatic receiving antenna (default: the transmitter's ``look``).
+    backscatter : bool
+        Trace the direct backscatter of surface scatterers and point targets (order 0).
 
     Returns
     -------
@@ -201,7 +280,9 @@ def trace(radar: Radar, trajectory: Trajectory, look: Look, scene: Any, *,
         The histogram product (module docstring).
     """
     run = _Run("trace", radar, trajectory, look, scene, density, seed, sweeps, chunk_lanes,
-               bins_per_cell, beam_cull, scene_params)
+               bins_per_cell, beam_cull, scene_params,
+               _multipath_options(max_depth, rays, ray_cover, capture, ghosts, plane_normal,
+                                  slab_width), receiver_offset, receiver_look, backscatter)
     parts, indices = [], []
     for chosen, hist in run.chunks(rvp, normalized, progress):
         indices.append(chosen)
@@ -210,6 +291,118 @@ def trace(radar: Radar, trajectory: Trajectory, look: Look, scene: Any, *,
     geometry = run.geometry_of(np.concatenate(indices))
     return _histogram_product(histogram, run, geometry, np.concatenate(indices), rvp,
                               normalized)
+
+
+def _multipath_options(max_depth: Any, rays: Any, ray_cover: Any, capture: Any, ghosts: Any,
+                       plane_normal: Any, slab_width: Any) -> dict[str, Any]:
+    return {"max_depth": max_depth, "rays": rays, "ray_cover": ray_cover, "capture": capture,
+            "ghosts": ghosts, "plane_normal": plane_normal, "slab_width": slab_width}
+
+
+def trace_paths(radar: Radar, trajectory: Trajectory, look: Look, scene: Any, *,
+                sweep: int = 0, rays: Any = 64, max_depth: int | None = None,
+                ray_count: int | None = None, ray_cover: float | None = None,
+                capture: str | None = None, plane_normal: Any = None,
+                receiver_offset: Any = None, receiver_look: Look | None = None,
+                scene_params: dict | None = None) -> xr.Dataset:
+    """Path log of a subset of the multipath rays of one sweep (ray-geometry figures).
+
+    The rays are traced by the same kernel as :func:`trace` (nothing is deposited).
+
+    Parameters
+    ----------
+    radar, trajectory, look, scene
+        As :func:`trace`.
+    sweep : int
+        The sweep.
+    rays : int or array_like of int
+        How many rays of the grid to log (evenly spaced over the grid), or their indices.
+    max_depth, ray_cover, capture, plane_normal, receiver_offset, receiver_look, scene_params
+        As :func:`trace` (``max_depth`` defaults to the scene integrator's, at least 2).
+    ray_count : int, optional
+        Size of the ray grid (``rays`` of :func:`trace`).
+
+    Returns
+    -------
+    xarray.Dataset
+        Dims ``path`` (logged ray), ``segment`` (0: from the transmitter, k: after k
+        reflections), ``xyz``. ``start`` and ``end`` (path, segment, xyz) [m]: the segment's
+        origin and its hit, or a point 1.5x the scene's size away when it escapes (``hit``
+        False); ``alive`` (the segment exists), ``field`` (product of ``Γ R`` at its start),
+        ``power`` (transmit pattern x field², relative to the boresight ray's power density
+        ignoring spreading), ``captured`` (capture weight; > 0: this segment's tube reaches the
+        receiver), ``image`` (the transmitter's image the segment comes from), ``ray`` (grid
+        index), ``launch`` (path, 2: launch direction sines p, q); ``transmitter``,
+        ``receiver`` (xyz). Attribute ``plane_normal`` in 2D mode.
+    """
+    options = _multipath_options(max_depth, ray_count, ray_cover, capture, None, plane_normal,
+                                 None)
+    run = _Run("trace_paths", radar, trajectory, look, scene, None, None, np.array([sweep]),
+               None, None, None, scene_params, options, receiver_offset, receiver_look,
+               backscatter=False)
+    config = run.config
+    if config.max_depth < 2:
+        config = config.replace("trace_paths", max_depth=2)
+        run.setup = _setup_for(run, config)
+    grid = run.setup.rays
+    chosen = np.asarray(rays)
+    if chosen.ndim == 0:
+        count = int(min(max(int(chosen), 1), len(grid)))
+        chosen = np.unique(np.round(np.linspace(0, len(grid) - 1, count)).astype(np.int64))
+    if chosen.ndim != 1 or np.any(chosen < 0) or np.any(chosen >= len(grid)):
+        raise ParameterError("trace_paths", "rays", f"a count or ray indices in [0, "
+                             f"{len(grid)})", rays)
+    log = run.integrator.trace_paths(run.scene, run.geometry, radar, run.frames, int(sweep),
+                                     chosen, config, run.setup)
+    box = run.scene.bbox()
+    size = float(np.linalg.norm(np.array([float(v) for v in box.max])
+                                - np.array([float(v) for v in box.min]))) or 1.0
+    reach = np.where(log["hit"], log["t_hit"], 1.5 * size)
+    end = log["origin"] + log["direction"] * reach[..., None]
+    dead = ~log["alive"]
+    for key in ("origin", "image"):
+        log[key] = np.where(dead[..., None], np.nan, log[key])
+    end = np.where(dead[..., None], np.nan, end)
+    log["hit"] = log["hit"] & log["alive"]
+    tx = run.geometry["position"][sweep]
+    data = xr.Dataset(
+        {"start": (("path", "segment", "xyz"), log["origin"], {"units": "m"}),
+         "end": (("path", "segment", "xyz"), end, {"units": "m"}),
+         "hit": (("path", "segment"), log["hit"]),
+         "alive": (("path", "segment"), log["alive"]),
+         "field": (("path", "segment"), log["field"], {"long_name": "product of Gamma R"}),
+         "power": (("path", "segment"), log["pattern"] * log["field"] ** 2,
+                   {"long_name": "transmit pattern x field^2"}),
+         "captured": (("path", "segment"), log["captured"]),
+         "image": (("path", "segment", "xyz"), log["image"], {"units": "m"}),
+         "launch": (("path", "pq"), np.stack([grid.p[chosen], grid.q[chosen]], axis=-1)),
+         "transmitter": ("xyz", tx, {"units": "m"}),
+         "receiver": ("xyz", tx + run.setup.receiver_offset, {"units": "m"}),
+         "boresight": ("xyz", run.frames[sweep][:, 2])},
+        coords={"path": np.arange(len(chosen)), "ray": ("path", chosen),
+                "segment": np.arange(config.max_depth), "xyz": ["x", "y", "z"],
+                "pq": ["p", "q"]})
+    half_p = np.abs(grid.p).max() + 0.5 * grid.dp if not grid.planar else 0.0
+    half_q = np.abs(grid.q).max() + 0.5 * grid.dq
+    data.attrs.update(product="path_log", sweep=int(sweep), max_depth=int(config.max_depth),
+                      rays_per_sweep=len(grid), scene=str(run.scene_name),
+                      ray_cover=float(grid.cover), ray_dp=float(grid.dp), ray_dq=float(grid.dq),
+                      beamwidth_p=float(half_p / grid.cover),
+                      beamwidth_q=float(half_q / grid.cover),
+                      look_off_nadir_deg=look.off_nadir_deg, look_squint_deg=look.squint_deg)
+    if run.setup.planar:
+        data.attrs["plane_normal"] = [float(v) for v in run.setup.plane_normals[sweep]]
+        data.attrs["plane_axis"] = [float(v) for v in run.setup.ray_frames[sweep][:, 1]]
+    data.attrs.update(run.radar.to_attrs())
+    return data
+
+
+def _setup_for(run: _Run, config: Any) -> Any:
+    from mitsar.plugins.radar import make_setup
+
+    rx_frames = (None if run.receiver_look is None
+                 else antenna_frame(run.receiver_look, *run.geometry["attitude"].T))
+    return make_setup(run.radar, run.frames, config, run.setup.receiver_offset, rx_frames)
 
 
 def _histogram_product(histogram: NDArray, run: _Run, geometry: dict, sweeps: NDArray,
@@ -301,7 +494,10 @@ def simulate_scene(radar: Radar, trajectory: Trajectory, look: Look, scene: Any,
                    orders: Any = None, sweeps: Any = None, chunk_lanes: int | None = None,
                    bins_per_cell: int | None = None, beam_cull: float | None = None,
                    rvp: bool = True, normalized: bool = False, scene_params: dict | None = None,
-                   progress: bool = False) -> xr.Dataset:
+                   progress: bool = False, max_depth: int | None = None,
+                   rays: int | None = None, ray_cover: float | None = None,
+                   capture: str | None = None, ghosts: bool | None = None,
+                   plane_normal: Any = None, slab_width: float | None = None) -> xr.Dataset:
     """Raw data of a Mitsuba scene: trace, synthesise (streaming), add analytic targets.
 
     Histograms are turned into raw sweeps chunk by chunk, so memory stays bounded by the chunk
@@ -320,8 +516,9 @@ def simulate_scene(radar: Radar, trajectory: Trajectory, look: Look, scene: Any,
     orders : int or sequence of int, optional
         Path orders to keep (``0``: direct backscatter only); default all.
     density, seed, sweeps, chunk_lanes, bins_per_cell, beam_cull, rvp, normalized,
-    scene_params, progress
-        As :func:`trace`.
+    scene_params, progress, max_depth, rays, ray_cover, capture, ghosts, plane_normal,
+    slab_width
+        As :func:`trace` (monostatic).
 
     Returns
     -------
@@ -329,7 +526,9 @@ def simulate_scene(radar: Radar, trajectory: Trajectory, look: Look, scene: Any,
         Raw product (:mod:`mitsar.raw`).
     """
     run = _Run("simulate_scene", radar, trajectory, look, scene, density, seed, sweeps,
-               chunk_lanes, bins_per_cell, beam_cull, scene_params)
+               chunk_lanes, bins_per_cell, beam_cull, scene_params,
+               _multipath_options(max_depth, rays, ray_cover, capture, ghosts, plane_normal,
+                                  slab_width))
     _order_mask("simulate_scene", orders, np.arange(1))  # validate early
     samples = np.zeros((len(run.sweeps), radar.samples_per_sweep), dtype=np.complex128)
     row = 0

@@ -263,7 +263,7 @@ def test_integrator_rejects_unknown_parameters_and_unsupported_depth(tmp_path):
     assert hist.attrs["seed"] == 5 and hist.attrs["bins_per_cell"] == 8
     assert trace(RADAR, track, LOOK, declared, seed=2).attrs["seed"] == 2
     deep = _write(tmp_path, "deep", '<integrator type="radar"><integer name="max_depth" '
-                  'value="3"/></integrator>' + _sphere_target((15.0, 8.0, 0.0)))
+                  'value="99"/></integrator>' + _sphere_target((15.0, 8.0, 0.0)))
     with pytest.raises(ParameterError, match="max_depth"):
         trace(RADAR, track, LOOK, deep)
     with pytest.raises(ParameterError, match="sweeps"):
