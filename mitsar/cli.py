@@ -315,6 +315,21 @@ def cmd_montecarlo(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_rays(args: argparse.Namespace) -> int:
+    """``mitsar rays``: ray geometry and echo figures of a scene experiment."""
+    from mitsar.plots_rays import run_figures
+
+    _log(args, f"tracing rays of {args.experiment} (sweep {args.sweep}) ...")
+    summary = run_figures(args.experiment, args.output, args.rays, args.sweep,
+                          overwrite=args.overwrite)
+    ratio = summary.get("reflections_over_backscatter_amplitude")
+    print(f"captured reflected rays: {summary['captures']}; reflections / backscatter peak "
+          f"amplitude after the range FFT: {'none' if not ratio else f'{ratio:.3g}'}")
+    for name in summary["figures"].values():
+        _log(args, f"wrote {name}")
+    return 0
+
+
 def cmd_ambiguity(args: argparse.Namespace) -> int:
     """``mitsar ambiguity``: gradient-method maps of one or more trajectories."""
     from mitsar.ambiguity import run_ambiguity_experiment
@@ -430,6 +445,18 @@ def build_parser() -> argparse.ArgumentParser:
                      help="also plot cuts of N realisations over the nominal response "
                      "(paper Figs. 8-9; 0: none)")
     sub.set_defaults(func=cmd_montecarlo)
+
+    sub = commands.add_parser("rays", parents=[common], help="ray geometry and echoes of a "
+                              "scene (paper Figs. 6, 10, 11)", description="Trace one sweep of "
+                              "a scene experiment with multipath and plot the ray geometry (2D "
+                              "or 3D) and the echoes after the range FFT, backscatter only and "
+                              "with reflections, near range / centre scene / far range marked.")
+    sub.add_argument("experiment", metavar="EXPERIMENT.toml")
+    sub.add_argument("-o", "--output", required=True, metavar="DIR", help="output folder")
+    sub.add_argument("--overwrite", action="store_true", help="replace existing outputs")
+    sub.add_argument("--rays", type=int, metavar="N", help="rays drawn from the path log")
+    sub.add_argument("--sweep", type=int, default=0, help="sweep to trace (0)")
+    sub.set_defaults(func=cmd_rays)
 
     sub = commands.add_parser("ambiguity", parents=[common], help="resolution and ambiguity "
                               "maps of a trajectory", description="Resolution and ambiguity "

@@ -27,6 +27,10 @@ import numpy as np
 import xarray as xr
 from numpy.typing import NDArray
 
+from mitsar.errors import ParameterError
+from mitsar.io import write_json
+from mitsar.plots import save_figure
+
 __all__ = ["beam_marks", "echo_profiles", "figure_echoes", "figure_ray_geometry_2d",
            "plane_axes", "plot_echoes", "plot_rays_2d", "plot_rays_3d", "run_figures"]
 
@@ -300,7 +304,7 @@ def figure_echoes(histogram: xr.Dataset, marks: dict[str, float] | None = None,
 # --------------------------------------------------------------------------------------------
 
 def run_figures(experiment_path: str | Path, out: str | Path, path_rays: int | None = None,
-                sweep: int = 0) -> dict[str, Any]:
+                sweep: int = 0, overwrite: bool = False) -> dict[str, Any]:
     """Trace an experiment with a scene and write the ray and echo figures and a summary.
 
     Parameters
@@ -323,14 +327,14 @@ def run_figures(experiment_path: str | Path, out: str | Path, path_rays: int | N
     import matplotlib
 
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
     from mitsar.experiment import load_experiment
     from mitsar.trace import trace, trace_paths
 
     exp = load_experiment(experiment_path)
     if exp.scene is None:
-        raise SystemExit(f"{experiment_path}: needs a scene")
+        raise ParameterError(str(experiment_path), "scene", "a scene (XML file or canned name) "
+                             "to trace rays in", None)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     options = exp.simulation
@@ -349,23 +353,18 @@ def run_figures(experiment_path: str | Path, out: str | Path, path_rays: int | N
     name = exp.name or Path(experiment_path).stem
     figures = {}
     fig = figure_echoes(hist, marks, title=name)
-    figures["echoes"] = out / "echoes.png"
-    fig.savefig(figures["echoes"], dpi=130)
-    plt.close(fig)
+    figures["echoes"] = save_figure(fig, out / "echoes.png", overwrite=overwrite, dpi=130)
     if planar:
         u, v, _ = plane_axes(paths)
         ends = paths["end"].values[paths["hit"].values]
         bounds = (ends @ u).min(), (ends @ u).max(), (ends @ v).min(), (ends @ v).max()
         fig = figure_ray_geometry_2d(paths, bounds=bounds, title=name)
-        figures["rays"] = out / "rays_2d.png"
-        fig.savefig(figures["rays"], dpi=130)
-        plt.close(fig)
+        figures["rays"] = save_figure(fig, out / "rays_2d.png", overwrite=overwrite, dpi=130)
     else:
         ax = plot_rays_3d(paths, every=max(1, len(paths["path"]) // 150))
         ax.set_title(f"ray geometry: {name}")
-        figures["rays"] = out / "rays_3d.png"
-        ax.figure.savefig(figures["rays"], dpi=130)
-        plt.close(ax.figure)
+        figures["rays"] = save_figure(ax.figure, out / "rays_3d.png", overwrite=overwrite,
+                                      dpi=130)
     profiles = echo_profiles(hist, 0)
     back_peak = float(np.abs(profiles["backscatter"]).max())
     reflections = profiles["total"] - profiles["backscatter"]
@@ -382,7 +381,7 @@ def run_figures(experiment_path: str | Path, out: str | Path, path_rays: int | N
         if refl_peak > 0 else None,
         "figures": {k: str(v) for k, v in figures.items()},
     }
-    (out / "summary.json").write_text(json.dumps(summary, indent=2))
+    write_json(summary, out / "summary.json", overwrite=overwrite)
     return summary
 
 
@@ -395,7 +394,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--rays", type=int, default=None, help="rays in the path log")
     parser.add_argument("--sweep", type=int, default=0)
     args = parser.parse_args(argv)
-    summary = run_figures(args.experiment, args.output, args.rays, args.sweep)
+    summary = run_figures(args.experiment, args.output, args.rays, args.sweep, overwrite=True)
     print(json.dumps(summary, indent=2))
     return 0
 

@@ -253,3 +253,14 @@ def test_montecarlo_command_resumes_and_plots(tmp_path, capsys):
     record = (out / "montecarlo.json").read_text()
     assert main(arguments + ["--cuts", "0"]) == 0  # resumed: nothing new to compute
     assert (out / "montecarlo.json").read_text() == record
+
+
+def test_rays_command_on_the_paper_2d_case(tmp_path, capsys):
+    """``mitsar rays`` traces the paper's 2D case 2 and writes the ray and echo figures."""
+    from mitsar.experiment import example_path
+
+    assert main(["rays", str(example_path("case2_2d")), "-o", str(tmp_path), "-q"]) == 0
+    assert "captured reflected rays" in capsys.readouterr().out
+    for name in ("echoes.png", "rays_2d.png", "summary.json"):
+        assert (tmp_path / name).stat().st_size > 0
+    assert main(["rays", str(example_path("case2_2d")), "-o", str(tmp_path), "-q"]) == 2
