@@ -265,19 +265,17 @@ def crop_to_pixels(frequency: NDArray, profile: NDArray, radar: Radar, pixels: N
                    positions: NDArray, max_speed: float) -> tuple[NDArray, NDArray]:
     """Keep only the profile bins that the pixels can be looked up in.
 
-    Slant ranges from the pixels to a subsample of the antenna positions (at most 65) bound
-    the beat frequencies, widened by the largest Doppler shift ``f_c v / K`` (in range), the
-    subsample's step and half a metre.
+    Slant ranges between the pixels' bounding box and the antenna positions bound the beat
+    frequencies (nearest point of the box, farthest corner), widened by the largest Doppler
+    shift ``f_c v / K`` (in range) and half a metre.
     """
-    stride = max(1, len(positions) // 64)
-    sample = np.vstack([positions[::stride], positions[-1:]])
-    low, high = np.inf, 0.0
-    for start in range(0, len(pixels), 1 << 16):
-        distances = np.linalg.norm(pixels[start:start + (1 << 16), None, :] - sample[None],
-                                   axis=-1)
-        low, high = min(low, distances.min()), max(high, distances.max())
-    along_step = np.linalg.norm(np.diff(sample, axis=0), axis=-1).max(initial=0.0)
-    margin = 0.5 + along_step + radar.carrier_frequency * max_speed / radar.chirp_rate
+    low_corner, high_corner = pixels.min(axis=0), pixels.max(axis=0)
+    nearest = np.clip(positions, low_corner, high_corner)
+    corners = np.array(np.meshgrid(*zip(low_corner, high_corner, strict=True),
+                                   indexing="ij")).reshape(3, -1).T
+    low = np.linalg.norm(positions - nearest, axis=-1).min()
+    high = np.linalg.norm(positions[:, None, :] - corners[None], axis=-1).max()
+    margin = 0.5 + radar.carrier_frequency * max_speed / radar.chirp_rate
     keep = np.flatnonzero((frequency >= radar.beat_frequency(max(low - margin, 0.0)))
                           & (frequency <= radar.beat_frequency(high + margin)))
     if len(keep) < 2:
