@@ -5,7 +5,7 @@ VENV ?= .venv
 PY := $(VENV)/bin/python
 PYTEST_ARGS ?=
 
-.PHONY: setup test demo lint bench clean
+.PHONY: setup test demo examples lint bench clean
 
 setup:
 	bash scripts/setup.sh $(VENV)
@@ -15,6 +15,24 @@ test: setup
 
 demo: setup
 	$(VENV)/bin/mitsar demo -o demo-output --overwrite
+
+# Every bundled example: ray-traced scenes, the paper's 2D/3D multipath cases, ambiguity maps,
+# a short Monte Carlo and the ablation figures (a few minutes; outputs in demo-output/examples).
+examples: setup
+	mkdir -p demo-output/examples
+	$(VENV)/bin/mitsar simulate examples/scene_point_target.toml -o demo-output/examples/scene_raw.nc --overwrite
+	$(VENV)/bin/mitsar focus demo-output/examples/scene_raw.nc -o demo-output/examples/scene_image.nc --overwrite
+	$(VENV)/bin/mitsar metrics demo-output/examples/scene_image.nc
+	for case in case1_2d case2_2d dihedral_3d trihedral_3d; do \
+	  $(VENV)/bin/mitsar rays examples/$$case.toml -o demo-output/examples/$$case --overwrite || exit 1; done
+	for case in dihedral_3d trihedral_3d; do \
+	  $(VENV)/bin/mitsar simulate examples/$$case.toml -o demo-output/examples/$$case/raw.nc --overwrite && \
+	  $(VENV)/bin/mitsar focus demo-output/examples/$$case/raw.nc -o demo-output/examples/$$case/image.nc --overwrite && \
+	  $(VENV)/bin/mitsar plot demo-output/examples/$$case/raw.nc -o demo-output/examples/$$case/range_compressed.png --overwrite && \
+	  $(VENV)/bin/mitsar plot demo-output/examples/$$case/image.nc -o demo-output/examples/$$case/image.png --overwrite || exit 1; done
+	$(VENV)/bin/mitsar ambiguity examples/ambiguity_control_volume.toml -o demo-output/examples/ambiguity --overwrite
+	$(VENV)/bin/mitsar montecarlo examples/paper_point_target.toml -n 5 -o demo-output/examples/montecarlo --restart
+	$(PY) examples/ablations.py -o demo-output/examples/ablations --overwrite
 
 lint: setup
 	$(VENV)/bin/ruff check .

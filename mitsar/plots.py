@@ -163,7 +163,8 @@ def _mark_location(image: xr.Dataset, position: ArrayLike) -> tuple[float, float
 
 
 def plot_image(image: xr.Dataset, ax: Axes | None = None, dynamic_range_db: float = 40.0,
-               marks: Mapping[str, ArrayLike] | None = None, title: str | None = None) -> Axes:
+               marks: Mapping[str, ArrayLike] | None = None, title: str | None = None,
+               range_marks: Mapping[str, float] | None = None) -> Axes:
     """Focused image in dB (peak = 0) on its metre axes.
 
     Parameters
@@ -179,6 +180,9 @@ def plot_image(image: xr.Dataset, ax: Axes | None = None, dynamic_range_db: floa
         ``{"NR": ..., "CS": ..., "FR": ..., "target": (15, 8, 0)}``. Marks outside the image
         are skipped with a warning.
     title : str, optional
+    range_marks : mapping of str to float, optional
+        Slant ranges [m] drawn as lines across a slant-grid image, e.g. near range, centre
+        scene and far range from :func:`beam_range_marks` (paper Figs. 13 and 15b).
 
     Returns
     -------
@@ -205,7 +209,50 @@ def plot_image(image: xr.Dataset, ax: Axes | None = None, dynamic_range_db: floa
         ax.plot(*where, marker="+", markersize=14, markeredgewidth=1.5, color=colour,
                 linestyle="none", label=name)
         ax.annotate(name, where, xytext=(6, 6), textcoords="offset points", color=colour)
+    if range_marks and cols == "range":
+        for (name, value), style in zip(range_marks.items(), (":", "--", "-.", ":"),
+                                        strict=False):
+            if x.min() <= value <= x.max():
+                ax.axvline(value, color="tab:cyan", lw=1.0, linestyle=style)
+                ax.annotate(name, (value, y.max()), xytext=(3, -12), textcoords="offset points",
+                            color="tab:cyan", fontsize=8)
     return ax
+
+
+def beam_range_marks(image: xr.Dataset, floor_z: float = 0.0) -> dict[str, float]:
+    """Near range, centre scene and far range of the beam on a floor, on a slant grid.
+
+    Distances from the track (the slant grid's range coordinate) to where the lower edge, the
+    boresight and the upper edge of the elevation beam (off-nadir theta -/+ half the elevation
+    beamwidth lambda/d, same squint) meet the horizontal plane ``z = floor_z``. Far range is
+    omitted when the upper edge does not reach the floor.
+    """
+    from mitsar.geometry.attitude import Look, boresight
+    from mitsar.raw import radar_of
+
+    if image.attrs.get("grid_kind") != "slant" or "look_off_nadir_deg" not in image.attrs:
+        return {}
+    origin = np.asarray(_json_list(image.attrs["grid_origin"]), dtype=float)
+    along = np.asarray(_json_list(image.attrs["grid_along_track"]), dtype=float)
+    height = origin[2] - floor_z
+    half = np.degrees(radar_of(image).elevation_beamwidth) / 2
+    off_nadir = float(image.attrs["look_off_nadir_deg"])
+    squint = float(image.attrs.get("look_squint_deg", 0.0))
+    heading = float(np.arctan2(along[1], along[0]))
+    marks = {}
+    for name, angle in (("NR", off_nadir - half), ("CS", off_nadir), ("FR", off_nadir + half)):
+        if not 0.0 <= angle < 90.0 or height <= 0:
+            continue
+        sight = boresight(Look(angle, squint), heading=heading)
+        slant = height / -sight[2]
+        marks[name] = float(slant * np.sqrt(max(1.0 - (sight @ along) ** 2, 0.0)))
+    return marks
+
+
+def _json_list(value: Any) -> list[float]:
+    import json
+
+    return json.loads(value) if isinstance(value, str) else list(np.ravel(value))
 
 
 def _cut_through_peak(image: xr.Dataset, metrics: Mapping[str, Any] | None
@@ -416,7 +463,7 @@ def plot_file(path: str | os.PathLike, out: str | os.PathLike, overwrite: bool =
     if kind == "image":
         figure, ax = plt.subplots(figsize=(7, 6), layout="constrained")
         plot_image(product, ax=ax, dynamic_range_db=dynamic_range_db or 40.0,
-                   marks=target_marks(product))
+                   marks=target_marks(product), range_marks=beam_range_marks(product))
     elif "raw" in product or "profile" in product:
         figure, ax = plt.subplots(figsize=(8, 5), layout="constrained")
         plot_range_compressed(product, ax=ax, dynamic_range_db=dynamic_range_db or 50.0)

@@ -147,3 +147,24 @@ def test_plot_file_dispatches(tmp_path):
 def test_target_marks_from_experiment():
     marks = plots.target_marks(_image_product())
     assert list(marks) == ["target"]
+
+
+def test_beam_range_marks_closed_form():
+    """NR / CS / FR on the floor of a side-looking pass: h / cos(theta -/+ beta/2) (no squint),
+    the slant grid's range being the distance from the track."""
+    import math
+
+    import mitsar
+    from mitsar.plots import beam_range_marks
+
+    radar = mitsar.Radar()
+    trajectory = mitsar.Trajectory.linear([0.0, 8.0, 1.0], [0.5, 0, 0], 0.2)
+    raw = mitsar.simulate_point_targets(radar, trajectory, mitsar.Look(60.0),
+                                        [mitsar.PointTarget([0.05, 9.7, 0.0])], normalized=True)
+    image = mitsar.focus(raw, grid=mitsar.grid.SlantGrid(along_track=[0, 0.1, 0.05],
+                                                        slant_range=[1.0, 3.0, 0.5]))
+    half = radar.elevation_beamwidth / 2
+    marks = beam_range_marks(image)
+    assert marks["NR"] == pytest.approx(1.0 / math.cos(math.radians(60) - half))
+    assert marks["CS"] == pytest.approx(2.0)
+    assert marks["FR"] == pytest.approx(1.0 / math.cos(math.radians(60) + half))
