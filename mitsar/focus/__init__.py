@@ -28,8 +28,8 @@ def focus(raw: xr.Dataset, algorithm: str = "bpa", grid: Grid | dict | None = No
           window: str = "rect", range_window: str | None = None,
           azimuth_resolution: float | None = None, remove_rvp: bool = True,
           motion_correction: bool = True, backend: str = "drjit",
-          range_upsample: int = 16, pixel_chunk: int = 1 << 20,
-          algorithm_options: dict | None = None) -> xr.Dataset:
+          range_upsample: int = 16, pixel_chunk: int | None = None,
+          algorithm_options: dict | None = None, progress: bool = False) -> xr.Dataset:
     """Focus a raw product into an image.
 
     Parameters
@@ -56,11 +56,13 @@ def focus(raw: xr.Dataset, algorithm: str = "bpa", grid: Grid | dict | None = No
         BPA kernel.
     range_upsample : int
         Zero-padding factor of the range FFT before linear interpolation.
-    pixel_chunk : int
-        Pixels per kernel launch (memory bound).
+    pixel_chunk : int, optional
+        Pixels per kernel launch (memory bound); default 2^20, or 2^16 with a progress bar.
     algorithm_options : dict, optional
         Options of the frequency-domain algorithms (``rda``: ``src``; ``wda``: ``gate_cells``;
         ``fsa``: ``upsample``, ``check_aliasing``, ``src``); see ``docs/focusing.md``.
+    progress : bool
+        Show a progress bar (back-projection).
 
     Returns
     -------
@@ -122,7 +124,8 @@ def focus(raw: xr.Dataset, algorithm: str = "bpa", grid: Grid | dict | None = No
             raw, layout["position"].reshape(-1, 3), half_width=half_width, window=window,
             range_window=range_window, remove_rvp=remove_rvp,
             motion_correction=motion_correction, backend=backend,
-            range_upsample=range_upsample, pixel_chunk=pixel_chunk)
+            range_upsample=range_upsample, progress=progress,
+            pixel_chunk=pixel_chunk or (1 << 16 if progress else 1 << 20))
     shape = layout["position"].shape[:2]
     return make_image_product(raw, np.reshape(values, shape), layout, {**processing, **extra},
                               coverage=np.reshape(coverage, shape))

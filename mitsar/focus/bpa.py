@@ -41,6 +41,7 @@ import numpy as np
 import xarray as xr
 from drjit.llvm import Float32, Float64, UInt32
 from numpy.typing import NDArray
+from tqdm.auto import tqdm
 
 from mitsar.backend import require_llvm
 from mitsar.errors import ParameterError
@@ -397,8 +398,8 @@ def is_uniform_straight_track(raw: xr.Dataset, tolerance: float = 1e-6) -> bool:
 
 def focus_bpa(raw: xr.Dataset, pixels: NDArray, *, half_width: float, window: str,
               range_window: str, remove_rvp: bool, motion_correction: bool, backend: str,
-              range_upsample: int, pixel_chunk: int, band_selection: str | None = None
-              ) -> tuple[NDArray, NDArray, dict]:
+              range_upsample: int, pixel_chunk: int, band_selection: str | None = None,
+              progress: bool = False) -> tuple[NDArray, NDArray, dict]:
     """Back-project a raw product onto pixels (see the module docstring).
 
     Parameters
@@ -412,6 +413,8 @@ def focus_bpa(raw: xr.Dataset, pixels: NDArray, *, half_width: float, window: st
     band_selection : {"doppler", "pixel"} or None
         How the processed band is selected; default "doppler" for straight tracks with a
         processed band narrower than the beam, "pixel" otherwise.
+    progress : bool
+        Show a progress bar over pixel chunks.
 
     Returns
     -------
@@ -451,7 +454,9 @@ def focus_bpa(raw: xr.Dataset, pixels: NDArray, *, half_width: float, window: st
     frequency, profile = crop_to_pixels(frequency, profile, radar, pixels, positions,
                                         float(speed.max()))
     origin, direction, _ = track_frame(raw)
-    chunks = [slice(start, start + pixel_chunk) for start in range(0, len(pixels), pixel_chunk)]
+    chunks = tqdm([slice(start, start + pixel_chunk)
+                   for start in range(0, len(pixels), pixel_chunk)],
+                  disable=not progress, desc="back-projection", unit="chunk")
     arguments = (profile, frequency, radar)
     common = (positions, velocities, centroid, kernel_half_width, kernel_window,
               motion_correction)
