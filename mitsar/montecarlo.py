@@ -154,11 +154,16 @@ def run(experiment: Any, realisations: int = 10,
         trial = dataclasses.replace(
             experiment, simulation=dataclasses.replace(experiment.simulation, seed=seed))
         raw = run_simulation(trial)
-        entry: dict[str, Any] = {"seed": seed, "metrics": {}}
+        entry: dict[str, Any] = {"seed": seed, "metrics": {}, "failures": {}}
         for algorithm in algorithms:
             options = dataclasses.replace(experiment.focus, algorithm=algorithm)
             image = run_focus(raw, options)
-            entry["metrics"][algorithm] = _measure(image, target, islr_extent)
+            try:
+                entry["metrics"][algorithm] = _measure(image, target, islr_extent)
+            except ValueError as error:
+                # A realisation whose response cannot be measured (e.g. clutter filling a
+                # first null) is recorded as such, not retried forever on resume.
+                entry["failures"][algorithm] = str(error)
         records.append(entry)
         if record_path is not None:
             _write_atomic(record_path, {"fingerprint": fingerprint, "config": config,
@@ -244,8 +249,11 @@ def format_table(summary: xr.Dataset) -> str:
                                                  else f"{'-':>11s}"))
             name = str(algorithm).upper() if direction == "range" else ""
             lines.append(f"{name:6s}{direction:8s}" + "".join(cells))
-    lines.append(f"({int(summary.sizes['realisation'])} realisations, seeds "
-                 f"{int(summary['seed'].min())}..{int(summary['seed'].max())})")
+    total = int(summary.sizes["realisation"])
+    measured = int(summary["count"].min())
+    missing = f"; {total - measured} not measurable, left out" if measured < total else ""
+    lines.append(f"({total} realisations, seeds "
+                 f"{int(summary['seed'].min())}..{int(summary['seed'].max())}{missing})")
     return "\n".join(lines)
 
 

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
 from dataclasses import dataclass
 from typing import Any
 
@@ -78,13 +79,15 @@ class Radar:
         )
         for name in positive:
             value = getattr(self, name)
-            if not isinstance(value, int | float) or not math.isfinite(value) or value <= 0:
+            if not _is_real(value) or not math.isfinite(value) or value <= 0:
                 raise ParameterError("Radar", name, "a finite number > 0", value)
+            object.__setattr__(self, name, float(value))
         for name in ("azimuth_beamwidth_deg", "elevation_beamwidth_deg"):
             value = getattr(self, name)
-            if value is not None and not 0 < value < 180:
+            if value is not None and not (_is_real(value) and 0 < value < 180):
                 raise ParameterError("Radar", name, "None or a beamwidth in (0, 180) deg", value)
-        if self.noise_figure_db is not None and not math.isfinite(self.noise_figure_db):
+        if self.noise_figure_db is not None and not (_is_real(self.noise_figure_db)
+                                                     and math.isfinite(self.noise_figure_db)):
             raise ParameterError("Radar", "noise_figure_db", "None or a finite dB value",
                                  self.noise_figure_db)
         if self.bandwidth >= self.carrier_frequency:
@@ -184,7 +187,12 @@ class Radar:
         return 4.0 * speed * math.sin(self.azimuth_beamwidth / 2) / self.wavelength
 
     def check_prf(self, speed: float) -> None:
-        """Refuse a PRF below the Doppler bandwidth of the beam at ``speed`` m/s."""
+        """Refuse a PRF below the Doppler bandwidth of the beam at ``speed`` m/s.
+
+        The beam is Table 1's beamwidth lambda / l_AZ (the one-way -3.9 dB width of the sinc^2
+        pattern); its sidelobe and beam-edge energy beyond it still aliases weakly.
+        Focusing refuses, separately, a *processed* band wider than the PRF.
+        """
         band = self.doppler_bandwidth(speed)
         if self.prf < band:
             raise ParameterError(
@@ -208,3 +216,8 @@ class Radar:
             if key in attrs:
                 kwargs[f.name] = float(attrs[key])
         return cls(**kwargs)
+
+
+def _is_real(value: object) -> bool:
+    """A real number (Python or NumPy), not a bool."""
+    return isinstance(value, numbers.Real) and not isinstance(value, bool)

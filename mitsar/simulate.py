@@ -4,7 +4,8 @@ For every sweep k and fast-time sample n the platform position ``p(eta_k + T/2 +
 target position ``q(eta_k + T/2 + t_n)`` give the two-way delay, and the echo is the dechirped
 signal of :mod:`mitsar.signal` (paper eqs. 1-2, with the residual video phase unless
 ``rvp=False``). Amplitudes follow the radar equation with the two-way antenna pattern at
-mid-sweep (the pattern changes by < 1e-4 within one 4 ms sweep).
+mid-sweep (within one 4 ms sweep it changes by < 1% at the beam edge, a second-order effect
+since mid-sweep is the centre of the symmetric fast-time interval).
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ from mitsar.geometry.trajectory import Trajectory
 from mitsar.radar import SPEED_OF_LIGHT, Radar
 from mitsar.raw import make_raw_product, sweep_geometry
 from mitsar.signal import (
+    apparent_beat_frequency,
     dechirped_phase_cycles,
     fast_time,
     radar_equation_amplitude,
@@ -129,6 +131,10 @@ def simulate_point_targets(radar: Radar, trajectory: Trajectory, look: Look,
     if noise and radar.noise_figure_db is None:
         raise ParameterError("simulate_point_targets", "noise",
                              "noise=False unless radar.noise_figure_db is set", noise)
+    if noise and normalized:
+        raise ParameterError("simulate_point_targets", "noise",
+                             "noise=False with normalized=True (noise is in watts, normalised "
+                             "echoes are not)", noise)
     sweeps = sweep_count(radar, trajectory.duration)
     if sweeps < 1:
         raise ParameterError("simulate_point_targets", "trajectory.duration",
@@ -158,6 +164,7 @@ def simulate_point_targets(radar: Radar, trajectory: Trajectory, look: Look,
                            background_mode=background.mode,
                            background_cell_rcs_db=background.cell_rcs_db)
 
+    _check_beat_frequencies(radar, geometry, positions, velocities, len(targets))
     amplitude = _echo_amplitudes(radar, look, geometry, positions, velocities, reflectivity,
                                  normalized=normalized, pattern=pattern)
     sum_echoes = _sum_echoes_drjit if backend == "drjit" else _sum_echoes_numpy
@@ -194,6 +201,32 @@ def simulate_point_targets(radar: Radar, trajectory: Trajectory, look: Look,
         product["background_reflectivity"] = (("scatterer",), background_draw[1], {
             "units": "m", "long_name": "complex sqrt(RCS) of each scatterer, first sweep"})
     return product
+
+
+def _check_beat_frequencies(radar: Radar, geometry: dict, positions: NDArray,
+                            velocities: NDArray, target_count: int) -> None:
+    """Refuse echoes whose beat frequency exceeds the Nyquist limit (they would wrap around).
+
+    ``K tau + f_c dtau/dt`` (:func:`mitsar.signal.apparent_beat_frequency`) at mid-sweep of
+    the first, middle and last sweeps, for every scatterer.
+    """
+    sweeps = len(geometry["slow_time"])
+    for sweep in sorted({0, sweeps // 2, sweeps - 1}):
+        time = geometry["slow_time"][sweep] + radar.sweep_duration / 2
+        offset = positions + velocities * time - geometry["position"][sweep]
+        slant_range = np.linalg.norm(offset, axis=-1)
+        rate = 2 / SPEED_OF_LIGHT * np.einsum(
+            "mi,mi->m", velocities - geometry["velocity"][sweep], offset) / slant_range
+        beat = apparent_beat_frequency(2 * slant_range / SPEED_OF_LIGHT, rate, radar)
+        worst = int(np.argmax(np.abs(beat)))
+        if abs(beat[worst]) > radar.sampling_frequency / 2:
+            name = f"targets[{worst}]" if worst < target_count else "background"
+            raise ParameterError(
+                "simulate_point_targets", name,
+                f"an echo within the receiver's band: beat frequency <= fs/2 = "
+                f"{radar.sampling_frequency / 2:g} Hz, i.e. slant range <= "
+                f"{radar.max_range:g} m (max_range)",
+                f"{beat[worst]:.4g} Hz at {slant_range[worst]:.3f} m (sweep {sweep})")
 
 
 def _echo_amplitudes(radar: Radar, look: Look, geometry: dict, positions: NDArray,

@@ -10,6 +10,7 @@ is coherent speckle that focuses.
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass
 from typing import Literal
 
@@ -47,8 +48,10 @@ class PointTarget:
     def __post_init__(self) -> None:
         object.__setattr__(self, "position", _vector3("PointTarget", "position", self.position))
         object.__setattr__(self, "velocity", _vector3("PointTarget", "velocity", self.velocity))
-        if not (isinstance(self.rcs, int | float) and math.isfinite(self.rcs) and self.rcs > 0):
+        if not (isinstance(self.rcs, numbers.Real) and not isinstance(self.rcs, bool)
+                and math.isfinite(self.rcs) and self.rcs > 0):
             raise ParameterError("PointTarget", "rcs", "a radar cross section > 0 m^2", self.rcs)
+        object.__setattr__(self, "rcs", float(self.rcs))
 
 
 @dataclass(frozen=True)
@@ -85,12 +88,17 @@ class Background:
         object.__setattr__(self, "axis_u", _vector3("Background", "axis_u", self.axis_u))
         object.__setattr__(self, "axis_v", _vector3("Background", "axis_v", self.axis_v))
         size = np.asarray(self.size, dtype=float)
-        if size.shape != (2,) or not np.all(size > 0):
+        if size.shape != (2,) or not np.all(np.isfinite(size)) or not np.all(size > 0):
             raise ParameterError("Background", "size", "2 extents > 0 m", self.size)
         object.__setattr__(self, "size", (float(size[0]), float(size[1])))
+        if not (isinstance(self.cell_rcs_db, numbers.Real) and math.isfinite(self.cell_rcs_db)):
+            raise ParameterError("Background", "cell_rcs_db", "a finite level [dBsm]",
+                                 self.cell_rcs_db)
         if self.mode not in ("pulse", "frozen"):
             raise ParameterError("Background", "mode", "'pulse' or 'frozen'", self.mode)
-        if not (isinstance(self.scatterers_per_cell, int) and self.scatterers_per_cell >= 1):
+        if not (isinstance(self.scatterers_per_cell, numbers.Integral)
+                and not isinstance(self.scatterers_per_cell, bool)
+                and self.scatterers_per_cell >= 1):
             raise ParameterError("Background", "scatterers_per_cell", "an integer >= 1 (paper: 9)",
                                  self.scatterers_per_cell)
         u, v = np.asarray(self.axis_u), np.asarray(self.axis_v)

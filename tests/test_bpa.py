@@ -104,3 +104,22 @@ def test_bad_focus_parameters_are_named(raw):
         mitsar.focus(raw, window="boxcar")
     with pytest.raises(mitsar.ParameterError, match="'slant_range'"):
         mitsar.focus(raw, grid=SlantGrid(slant_range=[9, 8, 0.1]))
+
+
+def test_processed_band_wider_than_the_prf_is_refused():
+    """At 2.5 m/s the whole beam (first nulls, 4 v / l_AZ = 500 Hz) exceeds the 250 Hz PRF and
+    would alias into a ghost; a 10 cm band (v / rho = 25 Hz) fits."""
+    trajectory = mitsar.Trajectory.linear(START, [2.5, 0, 0], 0.2)
+    fast = mitsar.simulate_point_targets(RADAR, trajectory, LOOK, [mitsar.PointTarget(TARGET)],
+                                         normalized=True)
+    grid = SlantGrid(along_track=[0.0, 0.2, 0.05], slant_range=[7.9, 8.1, 0.05])
+    with pytest.raises(mitsar.ParameterError, match="'azimuth_resolution'.*PRF"):
+        mitsar.focus(fast, grid=grid)
+    assert mitsar.focus(fast, grid=grid, azimuth_resolution=0.1)["image"].size == 25
+
+
+def test_hovering_platform_is_refused(raw):
+    hovering = raw.copy()
+    hovering["platform_velocity"] = hovering["platform_velocity"] * 0.0
+    with pytest.raises(mitsar.ParameterError, match="'platform_velocity'"):
+        mitsar.focus(hovering, azimuth_resolution=0.1)

@@ -106,12 +106,22 @@ def test_radar_equation_amplitude():
     np.testing.assert_allclose(radar_equation_amplitude(RADAR, 1.0, slant_range), expected)
 
 
-def test_pattern_weights_the_aperture():
-    raw = _simulate(normalized=True)
-    amplitude = np.abs(raw["raw"].values[:, 330])
-    # Two-way amplitude pattern = one-way power pattern: 1 at broadside, sinc^2 away from it.
-    assert amplitude.max() == pytest.approx(1.0, abs=1e-3)
-    assert amplitude[0] < amplitude.max()
+def test_pattern_and_radar_equation_together():
+    """|s| = sqrt(P_T G^2 lambda^2 / ((4 pi)^3 R^4)) * sinc^2(u_az/beta_az) sinc^2(u_el/beta_el):
+    the two-way amplitude pattern is the one-way power pattern (tolerance: float round-off)."""
+    raw = _simulate()
+    frame = np.array([[1.0, 0, 0], [0, 4.5, 6.6] / np.hypot(6.6, 4.5),
+                      [0, 6.6, -4.5] / np.hypot(6.6, 4.5)]).T  # azimuth, elevation, boresight
+    offset = TARGET - raw["platform_position"].values
+    slant_range = np.linalg.norm(offset, axis=-1)
+    local = (offset / slant_range[:, None]) @ frame
+    pattern = (np.sinc(local[:, 0] / RADAR.azimuth_beamwidth)
+               * np.sinc(local[:, 1] / RADAR.elevation_beamwidth)) ** 2
+    free_space = np.sqrt(RADAR.transmit_power * RADAR.antenna_gain**2 * RADAR.wavelength**2
+                         / ((4 * np.pi) ** 3 * slant_range**4))
+    np.testing.assert_allclose(np.abs(raw["raw"].values[:, 330]), free_space * pattern,
+                               rtol=1e-6)
+    assert pattern.min() < 0.9  # the aperture reaches well into the beam's taper
 
 
 def test_moving_target_range_rate():
@@ -156,6 +166,13 @@ def test_background_statistics_rayleigh_and_uniform():
     assert stats.kstest(np.angle(reflectivity), "uniform", args=(-np.pi, 2 * np.pi)).pvalue > 0.01
     # Mean power per cell = -20 dBsm, to the sampling error of ~1000 draws (~3%).
     assert np.sum(np.abs(reflectivity) ** 2) / cells == pytest.approx(0.01, rel=0.15)
+    # The cell: ground range (c/2B) / sin(theta_inc) times Table 1's 0.10 m azimuth resolution,
+    # seen from mid-track (incidence on the floor: tan = 6.6 / 4.5 from the track's centre).
+    middle = raw["platform_position"].values[len(raw["sweep"]) // 2]
+    sight = TARGET - middle
+    sin_incidence = np.hypot(sight[0], sight[1]) / np.linalg.norm(sight)
+    assert raw.attrs["background_cell_area"] == pytest.approx(
+        RADAR.range_resolution / sin_incidence * 0.10, rel=1e-9)
 
 
 def test_background_modes_and_seeds():
@@ -187,3 +204,43 @@ def test_drjit_kernel_equals_numpy_reference():
                                                      seed=4, backend=backend)["raw"].values
                        for backend in ("drjit", "numpy"))
     np.testing.assert_allclose(fast, reference, atol=1e-6 * np.abs(reference).max())
+
+
+def test_rvp_removal_has_the_right_sign():
+    """Range compression with RVP removal leaves the phase of data simulated without RVP.
+
+    The RVP is -pi K tau^2 = -0.045 rad at 8 m; removing it with the wrong sign would leave
+    twice that. Tolerance 1e-4 rad: linear in the tiny deskew of the beat frequency.
+    """
+    raw = _simulate(duration=0.02, normalized=True, pattern=False)
+    with_rvp = mitsar.range_compress(raw)
+    without = mitsar.range_compress(_simulate(duration=0.02, normalized=True, pattern=False,
+                                              rvp=False))
+    peak = int(np.argmax(np.abs(without["profile"].values[0])))
+    difference = np.angle(with_rvp["profile"].values[0, peak]
+                          / without["profile"].values[0, peak])
+    assert abs(difference) < 1e-4
+    kept = mitsar.range_compress(raw, remove_rvp=False)
+    delay = _geometry(raw)[1][0]
+    residual = np.angle(kept["profile"].values[0, peak] / without["profile"].values[0, peak])
+    assert residual == pytest.approx(-np.pi * RADAR.chirp_rate * delay**2, abs=1e-3)
+
+
+def test_impossible_set_ups_are_refused_before_compute():
+    trajectory = mitsar.Trajectory.linear(START, VELOCITY, 0.1)
+    with pytest.raises(mitsar.ParameterError, match=r"'targets\[0\]'.*max_range"):
+        mitsar.simulate_point_targets(RADAR, trajectory, LOOK, [mitsar.PointTarget([15, 40, 0])])
+    noisy = mitsar.Radar(noise_figure_db=8.0)
+    with pytest.raises(mitsar.ParameterError, match="'noise'.*normalized"):
+        mitsar.simulate_point_targets(noisy, trajectory, LOOK, [mitsar.PointTarget(TARGET)],
+                                      noise=True, normalized=True)
+    with pytest.raises(mitsar.ParameterError, match="'cell_rcs_db'"):
+        mitsar.Background(TARGET, (1, 1), cell_rcs_db=float("nan"))
+    with pytest.raises(mitsar.ParameterError, match="'duration'"):
+        mitsar.Trajectory.linear(START, VELOCITY, float("inf"))
+    with pytest.raises(mitsar.ParameterError, match="'positions'"):
+        mitsar.Trajectory.navigation([0, 1, 2], [[0, 0, 0], [1, 0, np.nan], [2, 0, 0]])
+    # NumPy scalars are numbers too; booleans are not.
+    assert mitsar.Radar(prf=np.int64(250)).prf == 250.0
+    with pytest.raises(mitsar.ParameterError, match="'prf'"):
+        mitsar.Radar(prf=True)

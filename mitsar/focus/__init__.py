@@ -91,6 +91,8 @@ def focus(raw: xr.Dataset, algorithm: str = "bpa", grid: Grid | dict | None = No
 
     radar = radar_of(raw)
     half_width = aperture_half_width(radar, azimuth_resolution)
+    if "reference_range" not in raw.variables:  # recordings carry their own sampling
+        _check_processed_band(raw, radar, half_width, azimuth_resolution)
     nominal_azimuth = radar.wavelength / (4 * half_width)
     processing = {"algorithm": algorithm, "window": window, "range_window": range_window,
                   "azimuth_resolution_requested": -1.0 if azimuth_resolution is None
@@ -129,6 +131,28 @@ def focus(raw: xr.Dataset, algorithm: str = "bpa", grid: Grid | dict | None = No
     shape = layout["position"].shape[:2]
     return make_image_product(raw, np.reshape(values, shape), layout, {**processing, **extra},
                               coverage=np.reshape(coverage, shape))
+
+
+def _check_processed_band(raw: xr.Dataset, radar, half_width: float,
+                          azimuth_resolution: float | None) -> None:
+    """Refuse a hovering platform and a processed Doppler band wider than the PRF.
+
+    The processed band ``4 v h / lambda`` (h: half width in direction sine) must fit in the
+    PRF, else the azimuth spectrum aliases into ghosts.
+    """
+    speed = np.linalg.norm(raw["platform_velocity"].values, axis=-1)
+    if not np.all(np.isfinite(speed)) or speed.mean() <= 1e-9:
+        raise ParameterError("focus", "platform_velocity", "a moving platform (a synthetic "
+                             "aperture needs motion)", f"mean speed {speed.mean():.3g} m/s")
+    band = 4 * speed.max() * half_width / radar.wavelength
+    if band > radar.prf:
+        hint = ("set azimuth_resolution (the whole beam is processed by default)"
+                if azimuth_resolution is None else "raise azimuth_resolution")
+        raise ParameterError(
+            "focus", "azimuth_resolution",
+            f"a processed Doppler band 4 v h / lambda <= PRF = {radar.prf:g} Hz ({hint}; "
+            f"the finest resolution at {speed.max():.3g} m/s is "
+            f"{speed.max() / radar.prf:.3g} m)", f"{azimuth_resolution} ({band:.4g} Hz)")
 
 
 def make_image_product(raw: xr.Dataset, image: np.ndarray, layout: dict, processing: dict,

@@ -81,10 +81,11 @@ def doppler_geometry(pixels: NDArray, positions: NDArray, velocities: NDArray
 def aperture_half_width(radar: Radar, azimuth_resolution: float | None) -> float:
     """Half width of the processed aperture in direction sine, ``lambda / (4 rho)``.
 
-    ``None`` processes the whole beam to its first nulls (``lambda / l_AZ``), capped at 1.
+    ``None`` processes the whole beam to its first nulls (direction sine ``lambda / l_AZ``),
+    capped at 1.
     """
     if azimuth_resolution is None:
-        return min(np.sin(radar.azimuth_beamwidth), 1.0)
+        return min(radar.azimuth_beamwidth, 1.0)
     return min(radar.wavelength / (4.0 * azimuth_resolution), 1.0)
 
 

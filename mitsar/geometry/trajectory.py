@@ -70,8 +70,8 @@ class Trajectory:
         """
         start = _vector3("start", start)
         velocity = _vector3("velocity", velocity)
-        if not duration > 0:
-            raise ParameterError("Trajectory", "duration", "a time > 0 s", duration)
+        if not (np.isfinite(duration) and duration > 0):
+            raise ParameterError("Trajectory", "duration", "a finite time > 0 s", duration)
         if not np.linalg.norm(velocity) > 0:
             raise ParameterError("Trajectory", "velocity", "a non-zero velocity [m/s]",
                                  velocity.tolist())
@@ -86,8 +86,11 @@ class Trajectory:
         if points.ndim != 2 or points.shape[1] != 3 or len(points) < 2:
             raise ParameterError("Trajectory", "points", "at least 2 waypoints of 3 numbers",
                                  points.tolist())
-        if not speed > 0:
-            raise ParameterError("Trajectory", "speed", "a speed > 0 m/s", speed)
+        if not (np.isfinite(speed) and speed > 0):
+            raise ParameterError("Trajectory", "speed", "a finite speed > 0 m/s", speed)
+        if not np.all(np.isfinite(points)):
+            raise ParameterError("Trajectory", "points", "finite coordinates [m]",
+                                 points.tolist())
         legs = np.linalg.norm(np.diff(points, axis=0), axis=1)
         if np.any(legs <= 0):
             raise ParameterError("Trajectory", "points", "distinct consecutive waypoints",
@@ -122,19 +125,22 @@ class Trajectory:
         if positions.shape != (len(times), 3):
             raise ParameterError("Trajectory", "positions", f"shape ({len(times)}, 3)",
                                  positions.shape)
+        if not (np.all(np.isfinite(times)) and np.all(np.isfinite(positions))):
+            raise ParameterError("Trajectory", "positions", "finite times and positions",
+                                 "NaN or infinite values")
         times = times - times[0]
         if velocities is None:
             velocities = CubicSpline(times, positions, axis=0)(times, 1)
         velocities = np.asarray(velocities, dtype=float)
-        if velocities.shape != positions.shape:
-            raise ParameterError("Trajectory", "velocities", f"shape {positions.shape}",
-                                 velocities.shape)
+        if velocities.shape != positions.shape or not np.all(np.isfinite(velocities)):
+            raise ParameterError("Trajectory", "velocities",
+                                 f"finite values of shape {positions.shape}", velocities.shape)
         attitude = None
         if attitude_deg is not None:
             attitude = np.radians(np.asarray(attitude_deg, dtype=float))
-            if attitude.shape != positions.shape:
-                raise ParameterError("Trajectory", "attitude_deg", f"shape {positions.shape}",
-                                     attitude.shape)
+            if attitude.shape != positions.shape or not np.all(np.isfinite(attitude)):
+                raise ParameterError("Trajectory", "attitude_deg",
+                                     f"finite values of shape {positions.shape}", attitude.shape)
             attitude[:, 0] = np.unwrap(attitude[:, 0])
         spline = CubicHermiteSpline(times, positions, velocities, axis=0)
         return cls("navigation", times, positions, velocities, attitude, spline)
