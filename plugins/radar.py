@@ -1028,8 +1028,10 @@ def _make_class() -> type:
                 for s0 in range(0, len(sweeps), per_chunk):
                     chosen = sweeps[s0:s0 + per_chunk]
                     size = len(chosen) * orders * bins
-                    re = dr.zeros(mi.Float64, size)
-                    im = dr.zeros(mi.Float64, size)
+                    # A buffer of one fixed size: its length is a literal of the compiled
+                    # kernels, so sizing it per acquisition would recompile them every time.
+                    re = dr.zeros(mi.Float64, max(size, HISTOGRAM_CHUNK_ELEMENTS))
+                    im = dr.zeros(mi.Float64, max(size, HISTOGRAM_CHUNK_ELEMENTS))
                     if count:
                         self._backscatter_chunk(scene, device, geometry, frames, radar, setup,
                                                 chosen, k, target_speed, count, config, re, im)
@@ -1048,7 +1050,7 @@ def _make_class() -> type:
                             self.statistics["rays"] += width * len(chosen)
                             self.statistics["launches"] += 1
                             dr.eval(re, im)
-                    hist = (np.asarray(re) + 1j * np.asarray(im)).reshape(
+                    hist = (np.asarray(re)[:size] + 1j * np.asarray(im)[:size]).reshape(
                         len(chosen), orders, bins)
                     bar.update(len(chosen))
                     yield chosen, hist
