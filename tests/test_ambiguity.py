@@ -64,8 +64,9 @@ def test_broadside_floor_matches_closed_forms(height: float, ground: float) -> N
     expected_azimuth = RADAR.wavelength * slant / (2 * SPEED * t_int)
     rho_r = float(product["range_resolution"].values[0, k])
     rho_a = float(product["azimuth_resolution"].values[0, k])
-    assert rho_r == pytest.approx(expected_range, rel=1e-2)
-    assert rho_a == pytest.approx(expected_azimuth, rel=1e-2)
+    # Issue: within 1%; the gradients are exact closed forms here (measured 2e-8).
+    assert rho_r == pytest.approx(expected_range, rel=1e-6)
+    assert rho_a == pytest.approx(expected_azimuth, rel=1e-6)
     assert float(product["angle"].values[0, k]) == pytest.approx(90.0, abs=1e-3)
     assert float(product["incidence"].values[0, k]) == pytest.approx(
         math.degrees(math.asin(sin_incidence)), abs=1e-3)

@@ -183,7 +183,9 @@ def test_bistatic_corner_returns_the_image_power(scene, planes):
                               _pattern(WIDE, look_tx, path["points"][0] - tx),
                               _pattern(WIDE, look_rx, path["points"][-1] - rx))
     measured = np.abs(_order_total(hist, order)[0]) ** 2
-    assert 10 * np.log10(measured / expected) == pytest.approx(0.0, abs=1.0)
+    # Issue: within 1 dB. Measured 0.02 dB: 0.1 dB would catch a missing cos or a 1% tube
+    # normalisation error while leaving room for the tent interpolation across 4096 rays.
+    assert 10 * np.log10(measured / expected) == pytest.approx(0.0, abs=0.1)
     # Delay d/c, and the Doppler of the image: dL/dt = ŵ·(v_rx - M v_tx).
     velocity = np.array([0.5, 0.0, 0.0])
     image_velocity = mp.image_frame(np.eye(3), [n for _, n in planes]) @ velocity
@@ -215,7 +217,7 @@ def test_monostatic_corners_return_at_the_edge_and_vertex(scene, start, corner, 
     pattern = _pattern(RADAR, look, np.array(corner) - hist["platform_position"].values[0])
     expected = mp.image_power(RADAR, 2 * distance, 1.0, pattern, pattern)
     assert 10 * np.log10(np.abs(_order_total(hist, order)[0]) ** 2 / expected) \
-        == pytest.approx(0.0, abs=0.5)
+        == pytest.approx(0.0, abs=0.1)  # measured 0.00 dB
     others = [o for o in range(order + 1) if o != order]
     assert np.abs(hist["histogram"].values[:, others]).max() == 0.0
 
@@ -317,7 +319,7 @@ def test_paper_2d_cases(paper_2d):
         pattern = _pattern(RADAR, mitsar.Look(off_nadir), edge - position)
         expected = mp.image_power(RADAR, 2 * distance, field**2, pattern, pattern)
         assert 10 * np.log10(np.abs(_order_total(hist, 2)[0]) ** 2 / expected) \
-            == pytest.approx(0.0, abs=0.5)
+            == pytest.approx(0.0, abs=0.1)  # measured 0.00 dB
     narrow1, narrow2 = paper_2d["case1", 0.25], paper_2d["case2", 0.25]
     assert narrow1.attrs["traced_captures"] == 0
     assert np.abs(narrow1["histogram"].values[:, 1:]).max() == 0.0

@@ -64,7 +64,7 @@ def test_traced_point_target_reproduces_the_analytic_raw_data(canned_pair):
     traced, analytic = canned_pair
     assert traced["raw"].shape == analytic["raw"].shape == (150, 660)
     # Measured -57.6 dB (16 bins per cell, linear splitting; DESIGN §5.5: -54 dB).
-    assert _relative_error_db(traced["raw"].values, analytic["raw"].values) < -40.0
+    assert _relative_error_db(traced["raw"].values, analytic["raw"].values) < -50.0
     np.testing.assert_allclose(traced["platform_position"], analytic["platform_position"])
     assert traced.attrs["point_target_count"] == 1 and traced.attrs["scatterer_count"] == 0
 
@@ -95,6 +95,9 @@ def test_moving_point_target_and_normalized_mode():
                                scene_params={"velocity": "0.3, -0.2, 0", "rcs": 2.0})
     analytic = mitsar.simulate_point_targets(
         RADAR, track, LOOK, [mitsar.PointTarget(CANNED_TARGET, 2.0, velocity)], normalized=True)
+    # -40 dB (issue): the histogram holds each echo as a tone, first order in fast time; the
+    # second-order term of a target and platform both moving costs ~10 dB against the
+    # static-target cases (measured -45 dB here, -57 dB static).
     assert _relative_error_db(traced["raw"].values, analytic["raw"].values) < -40.0
 
 
@@ -104,7 +107,7 @@ def test_simulate_scene_adds_analytic_targets_and_selects_orders():
     both = simulate_scene(RADAR, track, LOOK, "point_target", targets=[extra], orders=0)
     analytic = mitsar.simulate_point_targets(
         RADAR, track, LOOK, [mitsar.PointTarget(CANNED_TARGET), extra])
-    assert _relative_error_db(both["raw"].values, analytic["raw"].values) < -40.0
+    assert _relative_error_db(both["raw"].values, analytic["raw"].values) < -50.0
     hist = trace(RADAR, track, LOOK, "point_target")
     assert hist["histogram"].dims == ("sweep", "order", "bin")
     assert hist.attrs["product"] == "histogram" and list(hist["order"].values) == [0]
@@ -235,7 +238,7 @@ def test_point_target_on_a_floor_is_not_shadowed_by_it(tmp_path):
     traced = simulate_scene(RADAR, track, LOOK, path)
     analytic = mitsar.simulate_point_targets(RADAR, track, LOOK,
                                              [mitsar.PointTarget([15.0, 8.0, 0.0])])
-    assert _relative_error_db(traced["raw"].values, analytic["raw"].values) < -40.0
+    assert _relative_error_db(traced["raw"].values, analytic["raw"].values) < -50.0
 
 
 # --- parameters --------------------------------------------------------------------------------
