@@ -589,6 +589,8 @@ def sample_surface_scatterers(scene: Any, density_per_m2: float,
         p = np.array(ps.p, dtype=np.float64).T
         n = np.array(ps.n, dtype=np.float64).T  # width 1 for planar shapes
         n = np.broadcast_to(n / np.linalg.norm(n, axis=1, keepdims=True), p.shape).copy()
+        if _has_vertex_normals(surface.shape):
+            n = _geometric_normals(scene, p, n)
         pos.append(p)
         nrm.append(n)
         area.append(np.full(count, surface.area / count))
@@ -605,6 +607,37 @@ def sample_surface_scatterers(scene: Any, density_per_m2: float,
         surface_ids=tuple(s.id for s in surfaces),
         materials=tuple(s.material for s in surfaces),
         density_per_m2=density, seed=int(seed))
+
+
+def _has_vertex_normals(shape: Any) -> bool:
+    """Whether a shape is a mesh whose sampled normals are interpolated vertex normals."""
+    try:
+        return bool(shape.is_mesh() and shape.has_vertex_normals())
+    except AttributeError:  # pragma: no cover - older Mitsuba
+        return False
+
+
+def _geometric_normals(scene: Any, positions: np.ndarray, shading: np.ndarray) -> np.ndarray:
+    """Face normals at sampled mesh points, oriented like the interpolated ``shading`` normals.
+
+    A mesh loaded without ``face_normals`` samples smoothed vertex normals (tens of degrees off
+    on a box), which would read sigma0 at the wrong incidence; a short ray cast back onto each
+    point returns the geometric normal of the triangle it lies on.
+    """
+    import mitsuba as mi
+
+    offset = 1e-4
+    origins = positions + offset * shading
+    rays = mi.Ray3f(mi.Point3f(*origins.T.astype(np.float32)),
+                    mi.Vector3f(*(-shading).T.astype(np.float32)))
+    hit = scene.ray_intersect(rays)
+    valid = np.array(hit.is_valid(), dtype=bool)
+    normals = np.array(hit.n, dtype=np.float64).T
+    normals = np.where(valid[:, None], normals, shading)
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    flip = np.einsum("ij,ij->i", normals, shading) < 0
+    normals[flip] *= -1.0
+    return normals
 
 
 # --------------------------------------------------------------------------------------------

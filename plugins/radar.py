@@ -76,6 +76,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import warnings
 from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any
@@ -300,8 +301,17 @@ def collect_scatterers(scene: Any, density: float, seed: int) -> ScattererSet:
 
     surf = sample_surface_scatterers(scene, density, seed)
     targets = scene_point_targets(scene)
-    radii = [_bounding_radius(s.shape) for s in scene_surfaces(scene)
+    surfaces = scene_surfaces(scene)
+    radii = [_bounding_radius(s.shape) for s in surfaces
              if getattr(s.shape.bsdf(), "MITSAR_KIND", None) == "pointtarget"]
+    foreign = [s.id or f"shape {s.index}" for s in surfaces
+               if getattr(s.shape.bsdf(), "MITSAR_KIND", None) is None]
+    if foreign:
+        # Shapes with a non-radar BSDF (e.g. Mitsuba's default diffuse) block rays but return
+        # nothing; usually a forgotten <bsdf type="doublelobe">.
+        warnings.warn("radar integrator: shapes without a radar material (doublelobe or "
+                      f"pointtarget) return no echo and only block rays: {', '.join(foreign)}",
+                      stacklevel=3)
     materials = list(surf.materials)
     tables = np.vstack([monostatic_sigma0_table(materials, SIGMA0_TABLE_SIZE),
                         np.ones((1, SIGMA0_TABLE_SIZE))])

@@ -279,3 +279,26 @@ def test_committed_mesh_is_current(tmp_path: Path) -> None:
     vertices, faces = ms.box_mesh([-0.5] * 3, [0.5] * 3)
     fresh = ms.write_ply(tmp_path / "unit_box.ply", vertices, faces)
     assert fresh.read_bytes() == (scenes.SCENE_DIR / "meshes" / "unit_box.ply").read_bytes()
+
+
+def test_scatterers_on_a_smooth_shaded_mesh_get_face_normals(tmp_path):
+    """A box mesh loaded without face_normals interpolates vertex normals (up to ~55 deg off);
+    scatterers must still carry the six face normals, or sigma0 is read at wrong angles."""
+    import shutil
+
+    import mitsar.scenes as canned
+    from mitsar.scene import load_scene, sample_surface_scatterers, scene_surfaces
+
+    source = canned.path("box_obstacle")
+    shutil.copytree(source.parent / "meshes", tmp_path / "meshes")
+    smooth = tmp_path / "box_smooth.xml"
+    text = source.read_text()
+    assert '<boolean name="face_normals" value="true"/>' in text
+    smooth.write_text(text.replace('<boolean name="face_normals" value="true"/>', ""))
+    scene = load_scene(smooth)
+    scatterers = sample_surface_scatterers(scene, 200, seed=1)
+    cabinet = [s.index for s in scene_surfaces(scene) if s.id == "cabinet"][0]
+    normals = scatterers.normals[scatterers.shape_index == cabinet]
+    axis_aligned = np.abs(normals).max(axis=1)
+    np.testing.assert_allclose(axis_aligned, 1.0, atol=1e-5)
+    assert len(np.unique(np.round(normals, 3), axis=0)) == 6

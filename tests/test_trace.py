@@ -311,3 +311,17 @@ def test_kernel_equals_the_numpy_reference_for_surface_scatterers(tmp_path):
                hg.apparent_range(distance, rate, RADAR), ranges[0], ranges[1] - ranges[0])
     expected = hg.histogram_to_raw(reference, ranges, RADAR)
     assert _relative_error_db(traced, expected) < -90.0
+
+
+def test_a_shape_without_a_radar_material_is_reported(tmp_path):
+    """A floor left with Mitsuba's default BSDF blocks rays and returns nothing: say so."""
+    scene = tmp_path / "plain.xml"
+    scene.write_text("""<scene version="3.0.0">
+    <shape type="rectangle" id="plain_floor">
+        <transform name="to_world"><scale x="2" y="2"/><translate x="15" y="8"/></transform>
+    </shape>
+</scene>""")
+    track = mitsar.Trajectory.linear([14.8, 1.4, 4.5], [0.5, 0.0, 0.0], 0.02)
+    with pytest.warns(UserWarning, match="plain_floor"):
+        hist = trace(RADAR, track, LOOK, str(scene))
+    assert np.abs(hist["histogram"].values).max() == 0.0
