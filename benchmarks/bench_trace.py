@@ -121,7 +121,7 @@ def child(kind: str, scene_name: str, sweeps: int, density: float | None) -> Non
         with open("/proc/self/clear_refs", "w") as refs:
             refs.write("5")
     except OSError:
-        pass
+        pass  # not Linux, or not allowed: peak RSS then counts from process start
     start = time.perf_counter()
     product = function(RADAR, _trajectory(sweeps), LOOK, scene, density=density, seed=0)
     elapsed = time.perf_counter() - start

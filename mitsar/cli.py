@@ -165,7 +165,7 @@ def cmd_metrics(args: argparse.Namespace) -> int:
         try:
             extent = float(extent)
         except ValueError:
-            pass
+            pass  # a named extent ("paper", "isce3", ...), checked by measure_impulse_response
     metrics = to_jsonable(run_metrics(image, target=args.target, islr_extent=extent))
     if args.output is not None:
         write_json(metrics, args.output, overwrite=args.overwrite)

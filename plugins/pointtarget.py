@@ -91,7 +91,7 @@ def _make_class() -> type:
             return bs, mi.Spectrum(0.0)
 
         def traverse(self, callback: Any) -> None:
-            pass
+            """Nothing to expose: the RCS and velocity are not differentiable parameters."""
 
         def to_string(self) -> str:
             vx, vy, vz = self.velocity

@@ -932,7 +932,7 @@ def _make_class() -> type:
             return []
 
         def traverse(self, callback: Any) -> None:
-            pass
+            """Nothing to expose: the integrator has no differentiable parameters."""
 
         def to_string(self) -> str:
             fields = ", ".join(f"{k}={v}" for k, v in self.config.to_dict().items())
