@@ -490,13 +490,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("mitsar: interrupted", file=sys.stderr)
         return 130
-    except NotImplementedError as error:
-        if args.debug:
-            raise
-        detail = f": {error}" if str(error) else ""
-        print(f"mitsar {args.command}: error: not implemented yet{detail} (run with --debug "
-              "for the traceback)", file=sys.stderr)
-        return EXIT_USAGE
     except (MitsarError, ValueError, OSError) as error:
         if args.debug:
             raise
