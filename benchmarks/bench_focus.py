@@ -23,8 +23,8 @@ from scipy import fft as sp_fft
 import mitsar
 from mitsar.focus.bpa import aperture_half_width
 from mitsar.focus.spectral import prepare_spectrum
-from mitsar.grid import SlantGrid
-from mitsar.raw import radar_of
+from mitsar.focus.grid import SlantGrid
+from mitsar.raw.product import radar_of
 
 
 def best_time(function, repeat: int) -> float:

@@ -7,7 +7,7 @@ Cases (canned ``control_volume``, a closed concrete room, so every ray bounces u
 
 - Mitsuba ``ray_intersect`` on random rays from the antenna (rays/s), timed after reading a
   result, best of three;
-- the tracer (:func:`mitsar.trace`, warm: kernels cached) for ``max_depth`` 2, 3 and 4, with
+- the tracer (:func:`mitsar.raw.traced`, warm: kernels cached) for ``max_depth`` 2, 3 and 4, with
   ghosts, and in 2D mode: ray segments/s (a segment = one ``ray_intersect`` of a live ray, plus
   the capture test, the reflection and, for the captured, the float64 deposit) and ray x sweep
   lanes/s, and the ratio of segments/s to raw ``ray_intersect``.
@@ -52,8 +52,8 @@ def raw_intersect(scene: object, count: int) -> float:
 
 
 def tracer_rate(scene: object, sweeps: int, rays: int, **options: object) -> dict[str, float]:
-    """Warm segments/s and lanes/s of :func:`mitsar.trace` (best of 3 after a warm-up)."""
-    from mitsar.trace import trace
+    """Warm segments/s and lanes/s of :func:`mitsar.raw.traced` (best of 3 after a warm-up)."""
+    from mitsar.raw.traced import trace
 
     track = mitsar.Trajectory.linear(START, [0.5, 0.0, 0.0], (sweeps + 0.5) / RADAR.prf)
     trace(RADAR, track, LOOK, scene, rays=rays, backscatter=False, **options)
@@ -76,7 +76,7 @@ def main() -> None:
     parser.add_argument("--rays", type=int, default=4096)
     parser.add_argument("--sweeps", type=int, default=256)
     args = parser.parse_args()
-    from mitsar.scene import load_scene
+    from mitsar.scene.scene import load_scene
 
     scene = load_scene(args.scene)
     raw = raw_intersect(scene, 2**20)

@@ -5,12 +5,12 @@ density of 9 scatterers per resolution cell, ~0.97 M scatterers):
 
 1. Mitsuba's own ``ray_intersect`` and ``ray_test`` on random rays from the antenna into the
    beam's half-space (rays/s), timed after reading a result;
-2. the integrator (:func:`mitsar.trace` on the loaded scene, warm: scatterers and kernels
+2. the integrator (:func:`mitsar.raw.traced` on the loaded scene, warm: scatterers and kernels
    cached): scatterer x sweep pairs/s, and contributions/s (pairs that survive the beam cull:
    shadow ray + float64 phase + scatter-add);
 3. memory (RSS after a warm-up trace, and the peak while tracing; each case in a fresh
    subprocess) of :func:`mitsar.simulate_scene` (streams histograms to raw) and of
-   :func:`mitsar.trace` (keeps the histogram product) as the number of sweeps doubles.
+   :func:`mitsar.raw.traced` (keeps the histogram product) as the number of sweeps doubles.
 
 Run: ``python benchmarks/bench_trace.py [--scene NAME] [--sweeps N] [--density D]
 [--memory-sweeps 64,128,256,512]``.
@@ -68,8 +68,8 @@ def mitsuba_rays(scene: object, count: int) -> dict[str, float]:
 
 
 def integrator_rate(scene: object, sweeps: int, density: float | None) -> dict[str, float]:
-    """Warm throughput of :func:`mitsar.trace` on a loaded scene."""
-    from mitsar.trace import trace
+    """Warm throughput of :func:`mitsar.raw.traced` on a loaded scene."""
+    from mitsar.raw.traced import trace
 
     trajectory = _trajectory(sweeps)
     start = time.perf_counter()
@@ -110,8 +110,8 @@ def child(kind: str, scene_name: str, sweeps: int, density: float | None) -> Non
     The scene is loaded and traced for 8 sweeps first (imports, kernels, scatterers), then the
     peak counter is reset (``/proc/self/clear_refs``) and the case runs.
     """
-    from mitsar.scene import load_scene
-    from mitsar.trace import simulate_scene, trace
+    from mitsar.scene.scene import load_scene
+    from mitsar.raw.traced import simulate_scene, trace
 
     scene = load_scene(scene_name)
     function = simulate_scene if kind == "simulate_scene" else trace
@@ -143,7 +143,7 @@ def main() -> None:
         child(args.child[0], args.scene, int(args.child[1]), args.density)
         return
 
-    from mitsar.scene import load_scene
+    from mitsar.scene.scene import load_scene
 
     scene = load_scene(args.scene)
     rays = mitsuba_rays(scene, args.rays)

@@ -1,26 +1,28 @@
 """mitsar: FMCW millimetre-wave SAR simulation and processing for indoor drones.
 
-The public API, re-exported from the modules that define it (see ``docs/``).
+The public API, re-exported from the stage that defines each name (``docs/design.md`` draws
+the stages: model → scene → raw → focus → quality, with ambiguity maps beside them).
 """
 
-__version__ = "0.1.0"
-
-from mitsar import grid  # noqa: E402
-from mitsar.errors import MitsarError, ParameterError  # noqa: E402
-from mitsar.focus import focus, range_compress  # noqa: E402
-from mitsar.geometry.attitude import Look, boresight  # noqa: E402
-from mitsar.geometry.trajectory import Trajectory  # noqa: E402
-from mitsar.io import load, save  # noqa: E402
-from mitsar.quality import measure_impulse_response  # noqa: E402
-from mitsar.radar import Radar  # noqa: E402
-from mitsar.realdata import raw_from_arrays, read_gotcha, read_raw  # noqa: E402
-from mitsar.simulate import simulate_point_targets  # noqa: E402
-from mitsar.targets import Background, PointTarget  # noqa: E402
-from mitsar.trace import histogram_to_raw_product, simulate_scene, trace  # noqa: E402
+from mitsar import ambiguity
+from mitsar.errors import MitsarError, ParameterError
+from mitsar.focus import grid
+from mitsar.focus.dispatch import focus
+from mitsar.focus.compression import range_compress
+from mitsar.io import load, save
+from mitsar.model.geometry.attitude import Look, boresight
+from mitsar.model.geometry.trajectory import Trajectory
+from mitsar.model.radar import Radar
+from mitsar.model.targets import Background, PointTarget
+from mitsar.quality.impulse import measure_impulse_response
+from mitsar.raw.analytic import simulate_point_targets
+from mitsar.raw.recorded import raw_from_arrays, read_gotcha, read_raw
+from mitsar.raw.traced import histogram_to_raw_product, simulate_scene, trace
+from mitsar.version import __version__
 
 __all__ = [
     "Background", "Look", "MitsarError", "ParameterError", "PointTarget", "Radar", "Trajectory",
-    "boresight", "focus", "grid", "histogram_to_raw_product", "load", "measure_impulse_response",
-    "range_compress", "raw_from_arrays", "read_gotcha", "read_raw", "save",
-    "simulate_point_targets", "simulate_scene", "trace",
+    "__version__", "ambiguity", "boresight", "focus", "grid", "histogram_to_raw_product", "load",
+    "measure_impulse_response", "range_compress", "raw_from_arrays", "read_gotcha", "read_raw",
+    "save", "simulate_point_targets", "simulate_scene", "trace",
 ]

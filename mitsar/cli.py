@@ -25,7 +25,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-import mitsar
+from mitsar.version import __version__
 from mitsar.errors import MitsarError
 
 __all__ = ["build_parser", "main"]
@@ -60,7 +60,7 @@ def _log(args: argparse.Namespace, message: str) -> None:
 # --- commands -------------------------------------------------------------------------------
 def cmd_simulate(args: argparse.Namespace) -> int:
     """``mitsar simulate``: experiment file -> raw product."""
-    from mitsar.experiment import load_experiment, run_simulation
+    from mitsar.experiment.config import load_experiment, run_simulation
     from mitsar.io import check_writable, save
 
     check_writable(args.output, args.overwrite)
@@ -95,7 +95,7 @@ def cmd_range(args: argparse.Namespace) -> int:
 
 def _focus_options(args: argparse.Namespace, raw: Any) -> Any:
     """Focus options: command-line flags over ``--grid`` over the raw's experiment."""
-    from mitsar.experiment import FocusOptions, focus_options_from_config, load_grid
+    from mitsar.experiment.config import FocusOptions, focus_options_from_config, load_grid
 
     config = raw.attrs.get("experiment")
     options = (focus_options_from_config(config, where=f"{args.raw} (experiment)")
@@ -121,7 +121,7 @@ def _focus_options(args: argparse.Namespace, raw: Any) -> Any:
 
 def cmd_focus(args: argparse.Namespace) -> int:
     """``mitsar focus``: raw product -> image product."""
-    from mitsar.experiment import run_focus
+    from mitsar.experiment.config import run_focus
     from mitsar.io import check_writable, load, save
 
     check_writable(args.output, args.overwrite)
@@ -154,7 +154,7 @@ def format_metrics(metrics: dict[str, Any]) -> str:
 
 def cmd_metrics(args: argparse.Namespace) -> int:
     """``mitsar metrics``: image product -> IRW, PSLR, ISLR."""
-    from mitsar.experiment import run_metrics
+    from mitsar.experiment.config import run_metrics
     from mitsar.io import check_writable, load, to_jsonable, write_json
 
     if args.output is not None:
@@ -176,7 +176,7 @@ def cmd_metrics(args: argparse.Namespace) -> int:
 
 def cmd_plot(args: argparse.Namespace) -> int:
     """``mitsar plot``: product file -> figure."""
-    from mitsar.plots import plot_file
+    from mitsar.plots.products import plot_file
 
     plot_file(args.file, args.output, overwrite=args.overwrite,
               dynamic_range_db=args.dynamic_range)
@@ -186,7 +186,7 @@ def cmd_plot(args: argparse.Namespace) -> int:
 
 def cmd_demo(args: argparse.Namespace) -> int:
     """``mitsar demo``: the paper's point-target experiment end to end."""
-    from mitsar.experiment import example_path, load_experiment
+    from mitsar.experiment.config import example_path, load_experiment
     from mitsar.io import ProductFileError, check_writable
 
     out = Path(args.output)
@@ -213,7 +213,7 @@ def run_demo(experiment: Any, paths: dict[str, Path], overwrite: bool = False,
     dict
         ``raw`` and ``image`` datasets, ``metrics`` (dict), ``seconds`` per step.
     """
-    from mitsar.experiment import run_focus, run_metrics, run_simulation
+    from mitsar.experiment.config import run_focus, run_metrics, run_simulation
     from mitsar.io import save, to_jsonable, write_json
 
     log = log or (lambda message: None)
@@ -246,7 +246,7 @@ def _demo_figures(raw: Any, image: Any, metrics: dict[str, Any], paths: dict[str
     """The four demo figures."""
     import matplotlib.pyplot as plt
 
-    from mitsar.plots import (
+    from mitsar.plots.products import (
         background_samples,
         plot_background_histograms,
         plot_cuts,
@@ -299,7 +299,7 @@ def demo_summary(experiment: Any, results: dict[str, Any], out: Path) -> str:
 # --- parser ---------------------------------------------------------------------------------
 def cmd_montecarlo(args: argparse.Namespace) -> int:
     """``mitsar montecarlo``: metric statistics over background realisations (Tables 4-5)."""
-    from mitsar import montecarlo
+    from mitsar.experiment import montecarlo
 
     out = Path(args.output)
     _log(args, f"Monte Carlo: {args.realisations} realisations x {', '.join(args.algorithms)}")
@@ -317,7 +317,7 @@ def cmd_montecarlo(args: argparse.Namespace) -> int:
 
 def cmd_rays(args: argparse.Namespace) -> int:
     """``mitsar rays``: ray geometry and echo figures of a scene experiment."""
-    from mitsar.plots_rays import run_figures
+    from mitsar.plots.rays import run_figures
 
     _log(args, f"tracing rays of {args.experiment} (sweep {args.sweep}) ...")
     summary = run_figures(args.experiment, args.output, args.rays, args.sweep,
@@ -332,7 +332,7 @@ def cmd_rays(args: argparse.Namespace) -> int:
 
 def cmd_ambiguity(args: argparse.Namespace) -> int:
     """``mitsar ambiguity``: gradient-method maps of one or more trajectories."""
-    from mitsar.ambiguity import run_ambiguity_experiment
+    from mitsar.ambiguity.gradient import run_ambiguity_experiment
 
     _log(args, f"ambiguity maps of {args.experiment} ...")
     summary = run_ambiguity_experiment(args.experiment, args.output, overwrite=args.overwrite,
@@ -353,12 +353,12 @@ def _add_output(parser: argparse.ArgumentParser, help_text: str, required: bool 
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``mitsar`` command."""
-    from mitsar.experiment import ALGORITHMS, ISLR_EXTENTS, WINDOWS
+    from mitsar.experiment.config import ALGORITHMS, ISLR_EXTENTS, WINDOWS
 
     parser = argparse.ArgumentParser(
         prog="mitsar", description="FMCW mm-wave SAR simulation and processing "
         "(Scannapieco et al. 2016). See docs/cli.md.")
-    parser.add_argument("--version", action="version", version=f"mitsar {mitsar.__version__}")
+    parser.add_argument("--version", action="version", version=f"mitsar {__version__}")
     common = argparse.ArgumentParser(add_help=False)
     common.add_argument("--debug", action="store_true",
                         help="show the full traceback on errors")

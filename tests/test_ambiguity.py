@@ -1,9 +1,9 @@
-"""Tests of the gradient method (mitsar.ambiguity) against closed forms and focused images.
+"""Tests of the gradient method (mitsar.ambiguity.gradient) against closed forms and focused images.
 
 Closed forms for a straight broadside pass over a flat floor (Cumming & Wong 2005 §4;
 Moccia & Renga 2011): ground-range resolution c / (2 B sin theta_inc), azimuth resolution
 lambda R / (2 L) with L = v T_int, orthogonal gradients. Focused-image checks: the IRW measured
-by mitsar.quality on a BPA image, divided by 0.886, against the predicted resolution.
+by mitsar.quality.impulse on a BPA image, divided by 0.886, against the predicted resolution.
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ import pytest
 import xarray as xr
 
 import mitsar
-from mitsar.ambiguity import (
+from mitsar.ambiguity.gradient import (
     SurfacePoints,
     ambiguity,
     compare_trajectories,
@@ -31,7 +31,7 @@ from mitsar.ambiguity import (
 )
 from mitsar.errors import ParameterError
 from mitsar.io import load, save
-from mitsar.radar import SPEED_OF_LIGHT
+from mitsar.model.radar import SPEED_OF_LIGHT
 
 RADAR = mitsar.Radar()
 SPEED = 0.5
@@ -160,8 +160,8 @@ def test_points_along_the_velocity_in_a_forward_look_are_ambiguous() -> None:
     (20.0, "floor", "cells"),        # squinted, ground plane: non-orthogonal gradients
 ])
 def test_prediction_matches_focused_irw(squint_deg: float, plane: str, along: str) -> None:
-    from mitsar.grid import PlaneGrid
-    from mitsar.quality import measure_impulse_response
+    from mitsar.focus.grid import PlaneGrid
+    from mitsar.quality.impulse import measure_impulse_response
 
     height, ground, aperture = 3.0, 4.0, 0.16
     look = mitsar.Look(math.degrees(math.atan2(ground, height)), squint_deg)
@@ -217,7 +217,7 @@ def test_prediction_matches_focused_irw(squint_deg: float, plane: str, along: st
 # --------------------------------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def box_scene():
-    from mitsar.ambiguity import _mitsuba
+    from mitsar.ambiguity.gradient import _mitsuba
 
     mi = _mitsuba()
     transform = mi.ScalarTransform4f
@@ -266,8 +266,8 @@ def test_outside_beam_and_shadowed_surfaces_are_not_observed(box_scene) -> None:
 
 
 def test_canned_scene_surfaces() -> None:
-    pytest.importorskip("mitsar.scene")
-    from mitsar import scenes
+    pytest.importorskip("mitsar.scene.scene")
+    from mitsar.scene import canned as scenes
 
     if "box_obstacle" not in scenes.names():
         pytest.skip("canned scene box_obstacle not available")
@@ -394,7 +394,7 @@ duration = 6.0
 
 
 def test_example_files_validate() -> None:
-    from mitsar.experiment import examples_dir
+    from mitsar.experiment.config import examples_dir
 
     files = sorted(examples_dir().glob("ambiguity_*.toml"))
     assert files

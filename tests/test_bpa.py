@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import mitsar
-from mitsar.grid import PlaneGrid, PointsGrid, SlantGrid, equivalent_position
+from mitsar.focus.grid import PlaneGrid, PointsGrid, SlantGrid, equivalent_position
 
 RADAR = mitsar.Radar()
 TARGET = np.array([15.0, 8.0, 0.0])

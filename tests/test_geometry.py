@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import mitsar
-from mitsar.geometry.antenna import one_way_pattern, two_way_pattern
-from mitsar.geometry.attitude import antenna_frame, body_to_world, boresight
+from mitsar.model.geometry.antenna import one_way_pattern, two_way_pattern
+from mitsar.model.geometry.attitude import antenna_frame, body_to_world, boresight
 
 
 @pytest.mark.parametrize("off_nadir", [0.0, 30.0, 57.0, 90.0])

@@ -7,13 +7,13 @@ import numpy as np
 import pytest
 
 import mitsar
-from mitsar import histogram as hg
+from mitsar.model import histogram as hg
 from mitsar.errors import ParameterError
-from mitsar.geometry.antenna import two_way_pattern
-from mitsar.geometry.attitude import antenna_frame
-from mitsar.radar import SPEED_OF_LIGHT
-from mitsar.raw import sweep_geometry
-from mitsar.signal import dechirped_phase_cycles, fast_time, radar_equation_amplitude
+from mitsar.model.geometry.antenna import two_way_pattern
+from mitsar.model.geometry.attitude import antenna_frame
+from mitsar.model.radar import SPEED_OF_LIGHT
+from mitsar.raw.product import sweep_geometry
+from mitsar.model.signal import dechirped_phase_cycles, fast_time, radar_equation_amplitude
 
 RADAR = mitsar.Radar()
 
@@ -65,7 +65,7 @@ def test_ops_agnostic_formulas_match_signal_module():
     delay = np.array([2 * 7.3 / SPEED_OF_LIGHT])
     assert hg.deposit_cycles(delay, RADAR)[0] == pytest.approx(
         dechirped_phase_cycles(delay, 0.0, RADAR)[0], rel=1e-15)
-    beat = mitsar.signal.apparent_beat_frequency(delay, 2 * 0.4 / SPEED_OF_LIGHT, RADAR)
+    beat = mitsar.model.signal.apparent_beat_frequency(delay, 2 * 0.4 / SPEED_OF_LIGHT, RADAR)
     assert hg.apparent_range(7.3, 0.4, RADAR) == pytest.approx(
         RADAR.range_for_beat_frequency(beat[0]), rel=1e-12)
 

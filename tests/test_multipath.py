@@ -10,12 +10,12 @@ import numpy as np
 import pytest
 
 import mitsar
-from mitsar import multipath as mp
+from mitsar.model import multipath as mp
 from mitsar.errors import ParameterError
-from mitsar.geometry.antenna import direction_sines, one_way_pattern
-from mitsar.geometry.attitude import antenna_frame
-from mitsar.radar import SPEED_OF_LIGHT
-from mitsar.trace import trace, trace_paths
+from mitsar.model.geometry.antenna import direction_sines, one_way_pattern
+from mitsar.model.geometry.attitude import antenna_frame
+from mitsar.model.radar import SPEED_OF_LIGHT
+from mitsar.raw.traced import trace, trace_paths
 
 mi = pytest.importorskip("mitsuba")
 
@@ -27,7 +27,7 @@ SIDE = ((0.0, 0.0, 0.0), (1.0, 0.0, 0.0))
 
 
 def _concrete_field():
-    from mitsar.doublelobe import DoubleLobe
+    from mitsar.model.doublelobe import DoubleLobe
 
     return math.sqrt(DoubleLobe.preset("concrete_94ghz").specular_fraction)
 
@@ -340,7 +340,7 @@ def test_ghosts_are_optional_and_need_a_reflection(paper_2d):
 
 
 def test_parameters_of_the_multipath_mechanism(tmp_path):
-    from mitsar.scene import load_scene
+    from mitsar.scene.scene import load_scene
 
     declared = _write(tmp_path, "declared",
                       '<integrator type="radar"><integer name="max_depth" value="3"/>'
@@ -384,7 +384,7 @@ def test_plane_sequences_of_a_trihedral_share_one_image():
 def test_examples_load_and_the_2d_case_runs_from_its_experiment(tmp_path):
     """The four examples validate; case 2 runs through run_simulation (the CLI's path) with its
     multipath keys, and the reflections are order 2 of the product."""
-    from mitsar.experiment import example_path, load_experiment, run_simulation
+    from mitsar.experiment.config import example_path, load_experiment, run_simulation
 
     loaded = {name: load_experiment(example_path(name))
               for name in ("case1_2d", "case2_2d", "dihedral_3d", "trihedral_3d")}
@@ -408,7 +408,7 @@ def test_ray_and_echo_figures(tmp_path):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from mitsar import plots_rays
+    from mitsar.plots import rays as plots_rays
 
     start, off_nadir = CASES["case2"]
     look = mitsar.Look(off_nadir)
@@ -442,10 +442,10 @@ def test_ghost_amplitude_matches_the_ray_tube_formula(tmp_path):
     """One 2D ray: mirror floor, then a concrete wall scattering back to the antenna (ghost,
     bistatic double-lobe sigma0). Traced |a|^2 equals mp.tube_scatter_power for the ray tube's
     solid angle dq * slab / s within 0.05 dB (measured 0.002 dB)."""
-    from mitsar.doublelobe import DoubleLobe
-    from mitsar.geometry.antenna import direction_sines, one_way_pattern
-    from mitsar.geometry.attitude import antenna_frame
-    from mitsar.plugins.radar import RadarIntegratorConfig, make_setup
+    from mitsar.model.doublelobe import DoubleLobe
+    from mitsar.model.geometry.antenna import direction_sines, one_way_pattern
+    from mitsar.model.geometry.attitude import antenna_frame
+    from mitsar.plugins.integrators.radar import RadarIntegratorConfig, make_setup
 
     floor = ('<shape type="rectangle" id="floor"><transform name="to_world"><scale x="5" '
              'y="5"/></transform><bsdf type="doublelobe"><string name="preset" value="mirror"/>'

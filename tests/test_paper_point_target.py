@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 import mitsar
-from mitsar.grid import SlantGrid, equivalent_position
-from mitsar.quality import measure_impulse_response
+from mitsar.focus.grid import SlantGrid, equivalent_position
+from mitsar.quality.impulse import measure_impulse_response
 
 RADAR = mitsar.Radar()
 TARGET = np.array([15.0, 8.0, 0.0])

@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from mitsar import io, plots
+from mitsar import io
+from mitsar.plots import products as plots
 from mitsar.errors import MitsarError
 
 PNG = b"\x89PNG\r\n\x1a\n"
@@ -155,13 +156,13 @@ def test_beam_range_marks_closed_form():
     import math
 
     import mitsar
-    from mitsar.plots import beam_range_marks
+    from mitsar.plots.products import beam_range_marks
 
     radar = mitsar.Radar()
     trajectory = mitsar.Trajectory.linear([0.0, 8.0, 1.0], [0.5, 0, 0], 0.2)
     raw = mitsar.simulate_point_targets(radar, trajectory, mitsar.Look(60.0),
                                         [mitsar.PointTarget([0.05, 9.7, 0.0])], normalized=True)
-    image = mitsar.focus(raw, grid=mitsar.grid.SlantGrid(along_track=[0, 0.1, 0.05],
+    image = mitsar.focus(raw, grid=mitsar.focus.grid.SlantGrid(along_track=[0, 0.1, 0.05],
                                                         slant_range=[1.0, 3.0, 0.5]))
     half = radar.elevation_beamwidth / 2
     marks = beam_range_marks(image)

@@ -1,4 +1,4 @@
-"""Tests of mitsar.quality against closed forms of the rectangular-spectrum impulse response.
+"""Tests of mitsar.quality.impulse against closed forms of the rectangular-spectrum impulse response.
 
 Closed forms (sinc, Cumming & Wong 2005 §2.6; values in /work/shared/reference/
 sar-processing-notes.md §2): IRW 0.8859 cells, PSLR −13.26 dB, ISLR −9.68 dB (infinite),
@@ -19,7 +19,7 @@ import pytest
 import xarray as xr
 from scipy.special import sici
 
-from mitsar.quality import (
+from mitsar.quality.impulse import (
     band_fill_db,
     first_nulls,
     irw,

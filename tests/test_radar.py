@@ -5,7 +5,7 @@ import math
 import pytest
 
 import mitsar
-from mitsar.radar import SPEED_OF_LIGHT
+from mitsar.model.radar import SPEED_OF_LIGHT
 
 
 def test_table1_derived_values():

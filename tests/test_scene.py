@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mitsar import scene as ms
-from mitsar import scenes
+from mitsar.scene import scene as ms
+from mitsar.scene import canned as scenes
 from mitsar.backend import BackendError
 from mitsar.errors import MissingFileError, ParameterError
 
@@ -286,8 +286,8 @@ def test_scatterers_on_a_smooth_shaded_mesh_get_face_normals(tmp_path):
     scatterers must still carry the six face normals, or sigma0 is read at wrong angles."""
     import shutil
 
-    import mitsar.scenes as canned
-    from mitsar.scene import load_scene, sample_surface_scatterers, scene_surfaces
+    import mitsar.scene.canned as canned
+    from mitsar.scene.scene import load_scene, sample_surface_scatterers, scene_surfaces
 
     source = canned.path("box_obstacle")
     shutil.copytree(source.parent / "meshes", tmp_path / "meshes")

@@ -8,8 +8,8 @@ import pytest
 from scipy import stats
 
 import mitsar
-from mitsar.radar import SPEED_OF_LIGHT
-from mitsar.signal import apparent_beat_frequency, radar_equation_amplitude
+from mitsar.model.radar import SPEED_OF_LIGHT
+from mitsar.model.signal import apparent_beat_frequency, radar_equation_amplitude
 
 RADAR = mitsar.Radar()
 TARGET = np.array([15.0, 8.0, 0.0])

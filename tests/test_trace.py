@@ -1,4 +1,4 @@
-"""The ray tracer (``radar`` integrator + mitsar.trace) against the analytic simulator and the
+"""The ray tracer (``radar`` integrator + mitsar.raw.traced) against the analytic simulator and the
 radar equation; invariances (chunking, seeds), shadowing, parameter errors."""
 
 import math
@@ -7,19 +7,19 @@ import numpy as np
 import pytest
 
 import mitsar
-from mitsar.doublelobe import DoubleLobe
+from mitsar.model.doublelobe import DoubleLobe
 from mitsar.errors import ParameterError
-from mitsar.geometry.attitude import antenna_frame
-from mitsar.grid import SlantGrid, equivalent_position
-from mitsar.quality import measure_impulse_response
-from mitsar.trace import histogram_to_raw_product, simulate_scene, trace
+from mitsar.model.geometry.attitude import antenna_frame
+from mitsar.focus.grid import SlantGrid, equivalent_position
+from mitsar.quality.impulse import measure_impulse_response
+from mitsar.raw.traced import histogram_to_raw_product, simulate_scene, trace
 
 mi = pytest.importorskip("mitsuba")
 
 RADAR = mitsar.Radar()
 LOOK = mitsar.Look(55.71)
 TRACK = mitsar.Trajectory.linear([14.8, 1.4, 4.5], [0.5, 0.0, 0.0], 0.6)  # 150 sweeps
-CANNED_TARGET = np.array([15.0, 8.0, 0.03])  # scenes/point_target.xml
+CANNED_TARGET = np.array([15.0, 8.0, 0.03])  # mitsar/scene/canned/point_target.xml
 
 
 def _relative_error_db(value, reference):
@@ -124,7 +124,7 @@ def test_simulate_scene_adds_analytic_targets_and_selects_orders():
 def _incoherent_power(scene, histogram, look, material, density, seed):
     """Closed form per scatterer, P_r = P_T G^2 lambda^2 sigma0 A P^2 / ((4 pi)^3 R^4),
     summed over the scatterers (mean over sweeps); P: the one-way sinc^2 aperture pattern."""
-    from mitsar.scene import sample_surface_scatterers
+    from mitsar.scene.scene import sample_surface_scatterers
 
     scatterers = sample_surface_scatterers(scene, density, seed)
     offset = scatterers.positions[None] - histogram["platform_position"].values[:, None]
@@ -156,7 +156,7 @@ def test_floor_patch_returns_the_radar_equation_power(tmp_path, incidence_deg):
                            ('<bsdf type="doublelobe"><float name="sigma0_db" value="-20"/>'
                             '</bsdf>', DoubleLobe(sigma0_db=-20.0))):
         path = _write(tmp_path, "patch", _rectangle("patch", (15, 8, 0), (0.5, 1.0), bsdf))
-        from mitsar.scene import load_scene
+        from mitsar.scene.scene import load_scene
 
         scene = load_scene(path)
         ratios = []
@@ -244,14 +244,14 @@ def test_point_target_on_a_floor_is_not_shadowed_by_it(tmp_path):
 # --- parameters --------------------------------------------------------------------------------
 
 def test_integrator_rejects_unknown_parameters_and_unsupported_depth(tmp_path):
-    from mitsar.scene import register_plugins
+    from mitsar.scene.scene import register_plugins
 
     register_plugins()
     with pytest.raises(Exception, match="bogus"):
         mi.load_dict({"type": "radar", "bogus": 1.0})
     with pytest.raises(Exception, match="chunk_lanes"):
         mi.load_dict({"type": "radar", "chunk_lanes": 2**27})
-    from mitsar.scene import load_scene
+    from mitsar.scene.scene import load_scene
 
     bogus = _write(tmp_path, "bogus", '<integrator type="radar"><float name="bogus" '
                    'value="1"/></integrator>')
@@ -274,12 +274,12 @@ def test_integrator_rejects_unknown_parameters_and_unsupported_depth(tmp_path):
 
 
 def test_kernel_equals_the_numpy_reference_for_surface_scatterers(tmp_path):
-    """The Dr.Jit kernel against mitsar.histogram in NumPy on the same scatterers (double-lobe
+    """The Dr.Jit kernel against mitsar.model.histogram in NumPy on the same scatterers (double-lobe
     sigma0 model, fixed speckle phases, sinc^2 pattern without culling): the same numbers up to
     float32 directions and the sigma0 table (measured -118 dB)."""
-    from mitsar import histogram as hg
-    from mitsar.scene import load_scene, sample_surface_scatterers
-    from mitsar.signal import radar_equation_amplitude
+    from mitsar.model import histogram as hg
+    from mitsar.scene.scene import load_scene, sample_surface_scatterers
+    from mitsar.model.signal import radar_equation_amplitude
 
     track = mitsar.Trajectory.linear([14.8, 1.4, 4.5], [0.5, 0.0, 0.0], 0.04)
     path = _write(tmp_path, "two", _rectangle("floor", (15, 8, 0), (0.6, 0.6), CONCRETE)
@@ -306,7 +306,7 @@ def test_kernel_equals_the_numpy_reference_for_surface_scatterers(tmp_path):
     reference = np.zeros((len(distance), len(ranges)), complex)
     rate = -np.einsum("smi,si->sm", direction, hist["platform_velocity"].values)
     hg.deposit(reference, np.arange(len(distance))[:, None],
-               hg.deposit_values(amplitude, 2 * distance / mitsar.radar.SPEED_OF_LIGHT, RADAR,
+               hg.deposit_values(amplitude, 2 * distance / mitsar.model.radar.SPEED_OF_LIGHT, RADAR,
                                  scatterers.phase / (2 * np.pi)),
                hg.apparent_range(distance, rate, RADAR), ranges[0], ranges[1] - ranges[0])
     expected = hg.histogram_to_raw(reference, ranges, RADAR)

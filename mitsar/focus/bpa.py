@@ -47,10 +47,10 @@ from mitsar.backend import require_llvm
 from mitsar.errors import ParameterError
 from mitsar.focus.compression import range_spectrum
 from mitsar.focus.windows import evaluate_window, window_coefficients
-from mitsar.grid import track_frame
-from mitsar.radar import SPEED_OF_LIGHT, Radar
-from mitsar.raw import radar_of
-from mitsar.signal import fast_time
+from mitsar.focus.grid import track_frame
+from mitsar.model.radar import SPEED_OF_LIGHT, Radar
+from mitsar.raw.product import radar_of
+from mitsar.model.signal import fast_time
 
 
 def doppler_geometry(pixels: NDArray, positions: NDArray, velocities: NDArray

@@ -17,8 +17,8 @@ import xarray as xr
 from numpy.typing import NDArray
 
 from mitsar.focus.windows import window_samples
-from mitsar.radar import SPEED_OF_LIGHT, Radar
-from mitsar.raw import radar_of
+from mitsar.model.radar import SPEED_OF_LIGHT, Radar
+from mitsar.raw.product import radar_of
 
 
 def range_spectrum(samples: NDArray, radar: Radar, *, window: str = "rect",

@@ -36,7 +36,7 @@ from scipy import fft as sp_fft
 
 from mitsar.errors import ParameterError
 from mitsar.focus.spectral import Spectrum, evaluate_dtft, secondary_range_compression
-from mitsar.radar import SPEED_OF_LIGHT
+from mitsar.model.radar import SPEED_OF_LIGHT
 
 GUARD_SAMPLES = 8
 """Extra zero samples (at the original rate) either side of the sweep against wrap-around."""

@@ -12,7 +12,7 @@ so the exact correction is
 ``H_cm(t, f_eta) = exp(-j 2 pi f_eta t)``                      (:func:`motion_correction_phase`)
 
 applied after the azimuth FFT. Left uncorrected, the Doppler frequency moves the beat frequency
-(``f = K tau + f_c dtau/dt``, :func:`mitsar.signal.apparent_beat_frequency`) and the target
+(``f = K tau + f_c dtau/dt``, :func:`mitsar.model.signal.apparent_beat_frequency`) and the target
 appears displaced along the line of sight by ``-c f_D / (2K)`` (:func:`doppler_range_shift`).
 
 Signs: our dechirped data carry ``exp(+j 2 pi f_c tau)``, so the azimuth frequency of the data is
@@ -33,7 +33,7 @@ import xarray as xr
 from numpy.typing import ArrayLike, NDArray
 
 from mitsar.errors import ParameterError
-from mitsar.radar import SPEED_OF_LIGHT, Radar
+from mitsar.model.radar import SPEED_OF_LIGHT, Radar
 
 POSITION_TOLERANCE_WAVELENGTHS = 1.0 / 16.0
 """Largest deviation of the antenna from the fitted straight, uniform track, in wavelengths
@@ -213,7 +213,7 @@ def doppler_range_shift(radar: Radar, doppler_frequency: ArrayLike) -> NDArray:
     """Apparent line-of-sight displacement of a target without motion correction [m].
 
     ``delta = -c f_D / (2K)``: from the beat frequency ``K tau + f_c dtau/dt = K tau - f_D``
-    (:func:`mitsar.signal.apparent_beat_frequency`); an approaching target (``f_D > 0``) appears
+    (:func:`mitsar.model.signal.apparent_beat_frequency`); an approaching target (``f_D > 0``) appears
     nearer. 9.8 mm (0.1 cell) at the edge of the paper's 9 deg beam at 0.5 m/s.
     """
     return -SPEED_OF_LIGHT * np.asarray(doppler_frequency) / (2.0 * radar.chirp_rate)

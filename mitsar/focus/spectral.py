@@ -41,8 +41,8 @@ from scipy import fft as sp_fft
 from mitsar.errors import ParameterError
 from mitsar.focus.motion import TrackGeometry, motion_correction_phase, straight_track
 from mitsar.focus.windows import evaluate_window, window_coefficients, window_samples
-from mitsar.radar import SPEED_OF_LIGHT, Radar
-from mitsar.signal import fast_time
+from mitsar.model.radar import SPEED_OF_LIGHT, Radar
+from mitsar.model.signal import fast_time
 
 MIN_BAND_BINS = 256
 """Fewest azimuth-frequency bins across the processed band (the band edges fall between bins
@@ -200,7 +200,7 @@ def prepare_spectrum(raw: xr.Dataset, radar: Radar, layout: dict, *, half_width:
         Raw product (straight track, constant velocity).
     radar : Radar
     layout : dict
-        A resolved :class:`~mitsar.grid.SlantGrid` (``grid.resolve``).
+        A resolved :class:`~mitsar.focus.grid.SlantGrid` (``grid.resolve``).
     half_width : float
         Processed aperture half width in direction sine, ``lambda / (4 rho)``.
     window, range_window : str
@@ -312,7 +312,7 @@ def focus_frequency_domain(raw: xr.Dataset, algorithm: str, layout: dict, *, hal
     from mitsar.focus.fsa import focus_fsa
     from mitsar.focus.rda import focus_rda
     from mitsar.focus.wda import focus_wda
-    from mitsar.raw import radar_of
+    from mitsar.raw.product import radar_of
 
     functions = {"rda": focus_rda, "wda": focus_wda, "fsa": focus_fsa}
     options = dict(options or {})

@@ -1,0 +1,347 @@
+"""Monte Carlo over background realisations: impulse-response statistics per algorithm (paper
+Tables 4-5).
+
+For realisation ``i`` the experiment is simulated with seed ``first_seed + i`` (a new draw of the
+fluctuating background, paper eq. 4), focused with every requested algorithm on the experiment's
+grid, and the target's IRW, PSLR and ISLR are measured in range and azimuth
+(:func:`mitsar.quality.impulse.measure_impulse_response`, at the target's position mapped onto the
+image grid). The result is the mean and variance of every metric over the realisations.
+
+Resumable runs: with ``out_dir`` every finished realisation is appended to
+``out_dir/montecarlo.json`` (rewritten atomically: a temporary file replaced with
+:func:`os.replace`, so an interrupted run never leaves a broken file), together with a
+fingerprint of the configuration. A new run with ``resume=True`` skips the seeds already there
+and refuses a file made with another configuration. The summary is written to
+``out_dir/summary.nc`` and ``out_dir/summary.txt``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import math
+import os
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import xarray as xr
+from tqdm.auto import tqdm
+
+from mitsar.version import __version__
+from mitsar.errors import MitsarError, ParameterError
+from mitsar.focus import ALGORITHMS
+
+RECORD_FILE = "montecarlo.json"
+SUMMARY_FILE = "summary.nc"
+TABLE_FILE = "summary.txt"
+DIRECTIONS = ("range", "azimuth")
+METRICS = ("irw_cells", "pslr_db", "islr_db")
+
+
+def _fingerprint(config: dict) -> str:
+    text = json.dumps(config, sort_keys=True, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def _write_atomic(path: Path, data: dict) -> None:
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    tmp.write_text(json.dumps(data, indent=1) + "\n", encoding="utf-8")
+    os.replace(tmp, path)
+
+
+def _measure(image: xr.Dataset, target: Sequence[float], islr_extent: str | float) -> dict:
+    from mitsar.focus.grid import equivalent_position
+    from mitsar.quality.impulse import measure_impulse_response
+
+    metrics = measure_impulse_response(image, equivalent_position(image, target),
+                                       islr_extent=islr_extent)
+    out = {f"{d}_{m}": float(metrics[d][m]) for d in DIRECTIONS for m in METRICS}
+    out["peak_offset_m"] = float(metrics["peak_offset_m"])
+    out["peak_db"] = float(metrics["peak_db"])
+    return out
+
+
+def run(experiment: Any, realisations: int = 10,
+        algorithms: Sequence[str] = ("bpa", "rda", "wda", "fsa"), *,
+        first_seed: int | None = None, out_dir: str | os.PathLike | None = None,
+        resume: bool = True, progress: bool = True, target: Sequence[float] | None = None,
+        islr_extent: str | float | None = None) -> xr.Dataset:
+    """Monte Carlo over background realisations of an experiment (module docstring).
+
+    Parameters
+    ----------
+    experiment : Experiment or path-like
+        A :class:`mitsar.experiment.config.Experiment` or a TOML file; its ``[focus]`` options (window,
+        azimuth resolution, grid) are used for every algorithm, its ``[metrics]`` target and
+        ISLR extent for the measurements.
+    realisations : int
+        Number of realisations N.
+    algorithms : sequence of str
+        Focusing algorithms to compare.
+    first_seed : int, optional
+        Seed of realisation 0 (default the experiment's ``[simulation] seed``); realisation i
+        uses ``first_seed + i``.
+    out_dir : path-like, optional
+        Folder for the resumable record and the summary (created if needed).
+    resume : bool
+        Continue a run recorded in ``out_dir`` (False: start afresh, replacing it).
+    progress : bool
+        Show a progress bar.
+    target : sequence of 3 floats, optional
+        World position of the measured target (default: the experiment's).
+    islr_extent : str or float, optional
+        ISLR sidelobe extent (default: the experiment's, i.e. "paper" = +-5 cells).
+
+    Returns
+    -------
+    xarray.Dataset
+        ``value`` (realisation, algorithm, direction, metric): every measurement;
+        ``mean``, ``variance`` (sample variance, ddof=1) and ``count`` (algorithm, direction,
+        metric); ``peak_offset_m`` (realisation, algorithm); coordinate ``seed``
+        (realisation). See :func:`format_table`.
+    """
+    from mitsar.experiment.config import Experiment, load_experiment, run_focus, run_simulation
+
+    if not isinstance(experiment, Experiment):
+        experiment = load_experiment(experiment)
+    if isinstance(realisations, bool) or not isinstance(realisations, int) or realisations < 1:
+        raise ParameterError("montecarlo", "realisations", "an integer >= 1", realisations)
+    algorithms = list(algorithms)
+    unknown = [a for a in algorithms if a not in ALGORITHMS]
+    if not algorithms or unknown:
+        raise ParameterError("montecarlo", "algorithms", f"a non-empty list of {ALGORITHMS}",
+                             algorithms)
+    if experiment.background is None:
+        raise ParameterError("montecarlo", "experiment.background",
+                             "a [background] table (realisations differ only by it)", None)
+    target = experiment.metrics_target() if target is None else tuple(map(float, target))
+    if target is None:
+        raise ParameterError("montecarlo", "target", "a target position ([metrics] target or "
+                             "a [[targets]] entry)", None)
+    islr_extent = experiment.metrics.islr_extent if islr_extent is None else islr_extent
+    first_seed = experiment.simulation.seed if first_seed is None else int(first_seed)
+    config = {"experiment": experiment.config, "algorithms": algorithms,
+              "first_seed": first_seed, "target": list(target), "islr_extent": islr_extent,
+              "mitsar_version": __version__}
+    fingerprint = _fingerprint({k: v for k, v in config.items() if k != "mitsar_version"})
+
+    records: list[dict] = []
+    record_path = None
+    if out_dir is not None:
+        folder = Path(out_dir)
+        folder.mkdir(parents=True, exist_ok=True)
+        record_path = folder / RECORD_FILE
+        if resume and record_path.exists():
+            try:
+                stored = json.loads(record_path.read_text(encoding="utf-8"))
+            except (OSError, json.JSONDecodeError) as error:
+                raise MitsarError(f"{record_path}: unreadable Monte Carlo record ({error}); "
+                                  "remove it or pass resume=False") from error
+            if stored.get("fingerprint") != fingerprint:
+                raise MitsarError(f"{record_path}: recorded with another configuration "
+                                  "(experiment, algorithms, seeds, target or ISLR extent); "
+                                  "use another out_dir or resume=False to start afresh")
+            records = list(stored.get("records", []))
+    done = {r["seed"] for r in records}
+    seeds = [first_seed + i for i in range(realisations)]
+    todo = [s for s in seeds if s not in done]
+    bar = tqdm(total=len(seeds), initial=len(seeds) - len(todo), disable=not progress,
+               desc="montecarlo", unit="realisation")
+    for seed in todo:
+        trial = dataclasses.replace(
+            experiment, simulation=dataclasses.replace(experiment.simulation, seed=seed))
+        raw = run_simulation(trial)
+        entry: dict[str, Any] = {"seed": seed, "metrics": {}, "failures": {}}
+        for algorithm in algorithms:
+            options = dataclasses.replace(experiment.focus, algorithm=algorithm)
+            image = run_focus(raw, options)
+            try:
+                entry["metrics"][algorithm] = _measure(image, target, islr_extent)
+            except ValueError as error:
+                # A realisation whose response cannot be measured (e.g. clutter filling a
+                # first null) is recorded as such, not retried forever on resume.
+                entry["failures"][algorithm] = str(error)
+        records.append(entry)
+        if record_path is not None:
+            _write_atomic(record_path, {"fingerprint": fingerprint, "config": config,
+                                        "records": records})
+        bar.update(1)
+    bar.close()
+    by_seed = {r["seed"]: r for r in records}
+    summary = summarise([by_seed[s] for s in seeds], algorithms)
+    summary.attrs.update(product="montecarlo", fingerprint=fingerprint,
+                         islr_extent=str(islr_extent), first_seed=first_seed,
+                         mitsar_version=__version__,
+                         experiment=json.dumps(experiment.config))
+    if out_dir is not None:
+        from mitsar.io import save
+
+        save(summary, Path(out_dir) / SUMMARY_FILE, overwrite=True)
+        table = format_table(summary)
+        tmp = Path(out_dir) / f".{TABLE_FILE}.{os.getpid()}.tmp"
+        tmp.write_text(table + "\n", encoding="utf-8")
+        os.replace(tmp, Path(out_dir) / TABLE_FILE)
+    return summary
+
+
+def summarise(records: Sequence[dict], algorithms: Sequence[str]) -> xr.Dataset:
+    """Statistics of recorded realisations (see :func:`run` for the layout)."""
+    values = np.full((len(records), len(algorithms), len(DIRECTIONS), len(METRICS)), np.nan)
+    offsets = np.full((len(records), len(algorithms)), np.nan)
+    for i, record in enumerate(records):
+        for j, algorithm in enumerate(algorithms):
+            metrics = record["metrics"].get(algorithm)
+            if metrics is None:
+                continue
+            for k, direction in enumerate(DIRECTIONS):
+                for m, metric in enumerate(METRICS):
+                    values[i, j, k, m] = metrics[f"{direction}_{metric}"]
+            offsets[i, j] = metrics["peak_offset_m"]
+    count = np.sum(np.isfinite(values), axis=0)
+    with np.errstate(invalid="ignore"), _quiet():
+        mean = np.nanmean(values, axis=0)
+        variance = np.where(count > 1, np.nanvar(values, axis=0, ddof=1), np.nan)
+    dims = ("algorithm", "direction", "metric")
+    return xr.Dataset(
+        {"value": (("realisation",) + dims, values),
+         "mean": (dims, mean), "variance": (dims, variance), "count": (dims, count),
+         "peak_offset_m": (("realisation", "algorithm"), offsets, {"units": "m"})},
+        coords={"realisation": np.arange(len(records)),
+                "seed": ("realisation", np.array([r["seed"] for r in records], dtype=int)),
+                "algorithm": list(algorithms), "direction": list(DIRECTIONS),
+                "metric": list(METRICS)})
+
+
+class _quiet:
+    """Silence NumPy's mean-of-empty warnings (algorithms with no record yet)."""
+
+    def __enter__(self) -> None:
+        import warnings
+
+        self._catch = warnings.catch_warnings()
+        self._catch.__enter__()
+        warnings.simplefilter("ignore", RuntimeWarning)
+
+    def __exit__(self, *exc: object) -> None:
+        self._catch.__exit__(*exc)
+
+
+def format_table(summary: xr.Dataset) -> str:
+    """The summary as a text table in the layout of paper Tables 4-5.
+
+    One block per algorithm, first row range, second azimuth; columns IRW (cells), PSLR (dB),
+    ISLR (dB), each mean and variance.
+    """
+    lines = [f"{'':6s}{'':8s}{'IRW (cells)':>22s}{'PSLR (dB)':>22s}{'ISLR (dB)':>22s}",
+             f"{'':14s}" + "".join(f"{'mean':>11s}{'var':>11s}" for _ in METRICS)]
+    for algorithm in summary["algorithm"].values:
+        for direction in DIRECTIONS:
+            cells = []
+            for metric in METRICS:
+                mean = float(summary["mean"].sel(algorithm=algorithm, direction=direction,
+                                                 metric=metric))
+                var = float(summary["variance"].sel(algorithm=algorithm, direction=direction,
+                                                    metric=metric))
+                cells.append(f"{mean:11.3f}" + (f"{var:11.3f}" if math.isfinite(var)
+                                                 else f"{'-':>11s}"))
+            name = str(algorithm).upper() if direction == "range" else ""
+            lines.append(f"{name:6s}{direction:8s}" + "".join(cells))
+    total = int(summary.sizes["realisation"])
+    measured = int(summary["count"].min())
+    missing = f"; {total - measured} not measurable, left out" if measured < total else ""
+    lines.append(f"({total} realisations, seeds "
+                 f"{int(summary['seed'].min())}..{int(summary['seed'].max())}{missing})")
+    return "\n".join(lines)
+
+
+def run_montecarlo(experiment_path: str | os.PathLike, realisations: int,
+                   algorithms: Sequence[str], out_dir: str | os.PathLike,
+                   resume: bool = True) -> xr.Dataset:
+    """CLI entry point: :func:`run` on a TOML experiment, recording into ``out_dir``.
+
+    Writes ``out_dir/montecarlo.json`` (resumable record), ``out_dir/summary.nc`` and
+    ``out_dir/summary.txt`` (:func:`format_table`); returns the summary.
+    """
+    return run(experiment_path, realisations, algorithms, out_dir=out_dir, resume=resume)
+
+
+def realisation_cuts(experiment: Any, algorithm: str = "bpa", realisations: int = 5,
+                     first_seed: int | None = None) -> dict[str, Any]:
+    """Range and azimuth cuts through the target for a few realisations and the nominal case.
+
+    The nominal response is the experiment without its background (absorbing background);
+    each realisation is the experiment with seed ``first_seed + i`` (paper Figs. 8-9).
+
+    Returns
+    -------
+    dict
+        ``range_offset`` and ``azimuth_offset`` [m] axes; ``nominal`` and ``realisations``
+        (list) of dicts with ``range`` and ``azimuth`` cuts in dB relative to the nominal peak;
+        ``seeds``.
+    """
+    from mitsar.experiment.config import Experiment, load_experiment, run_focus, run_simulation
+    from mitsar.focus.grid import equivalent_position
+
+    if not isinstance(experiment, Experiment):
+        experiment = load_experiment(experiment)
+    target = experiment.metrics_target()
+    if target is None:
+        raise ParameterError("montecarlo", "target", "a [metrics] target or a [[targets]] entry",
+                             None)
+    first_seed = experiment.simulation.seed if first_seed is None else int(first_seed)
+    focus_options = dataclasses.replace(experiment.focus, algorithm=algorithm)
+
+    def cuts(exp: Any) -> tuple[dict, xr.Dataset]:
+        image = run_focus(run_simulation(exp), focus_options)
+        if image.attrs.get("grid_kind") != "slant":
+            raise ParameterError("montecarlo", "focus.grid.kind", "a slant grid for the cuts",
+                                 image.attrs.get("grid_kind"))
+        where = equivalent_position(image, target)
+        distance = np.linalg.norm(image["position"].values - where, axis=-1)
+        row, col = np.unravel_index(np.argmin(distance), distance.shape)
+        magnitude = np.abs(image["image"].values)
+        return {"range": magnitude[row, :], "azimuth": magnitude[:, col]}, image
+
+    nominal, image = cuts(dataclasses.replace(experiment, background=None))
+    peak = max(nominal["range"].max(), 1e-300)
+    row_axis = image["azimuth"].values - image["azimuth"].values[np.argmax(nominal["azimuth"])]
+    col_axis = image["range"].values - image["range"].values[np.argmax(nominal["range"])]
+    seeds = [first_seed + i for i in range(realisations)]
+    drawn = []
+    for seed in tqdm(seeds, desc=f"cuts {algorithm}", unit="realisation", leave=False):
+        exp = dataclasses.replace(experiment, simulation=dataclasses.replace(
+            experiment.simulation, seed=seed))
+        drawn.append(cuts(exp)[0])
+
+    def decibel(cut: dict) -> dict:
+        return {k: 20 * np.log10(np.maximum(v, 1e-300) / peak) for k, v in cut.items()}
+
+    return {"range_offset": col_axis, "azimuth_offset": row_axis, "nominal": decibel(nominal),
+            "realisations": [decibel(c) for c in drawn], "seeds": seeds, "algorithm": algorithm}
+
+
+def plot_realisation_cuts(cuts: dict[str, Any], path: str | os.PathLike,
+                          overwrite: bool = False) -> Path:
+    """Figure like paper Figs. 8-9: cuts of several realisations over the nominal response."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from mitsar.plots.products import save_figure
+
+    figure, axes = plt.subplots(1, 2, figsize=(11, 4), constrained_layout=True)
+    for ax, direction in zip(axes, DIRECTIONS, strict=True):
+        offset = cuts[f"{direction}_offset"]
+        for seed, cut in zip(cuts["seeds"], cuts["realisations"], strict=True):
+            ax.plot(offset, cut[direction], lw=0.8, alpha=0.8, label=f"seed {seed}")
+        ax.plot(offset, cuts["nominal"][direction], "k", lw=1.8, label="nominal (absorbing)")
+        ax.set(xlabel=f"{direction} offset [m]", ylabel="dB (nominal peak = 0)",
+               title=f"{cuts['algorithm'].upper()}: {direction} cut", ylim=(-45, 3),
+               xlim=(max(offset.min(), -1.0), min(offset.max(), 1.0)))
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=7)
+    return save_figure(figure, path, overwrite=overwrite)

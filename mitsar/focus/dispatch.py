@@ -1,0 +1,147 @@
+"""The one entry point of image formation: :func:`focus` checks, picks the algorithm, assembles.
+
+Every algorithm writes the same image product (:mod:`mitsar.focus.image`) on the same grids, so
+images compare pixel for pixel.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import xarray as xr
+
+from mitsar.errors import ParameterError
+from mitsar.focus.bpa import aperture_half_width, focus_bpa
+from mitsar.focus.windows import WINDOWS
+from mitsar.focus.grid import Grid, SlantGrid, from_dict
+from mitsar.focus.image import make_image_product
+from mitsar.focus.spectral import focus_frequency_domain
+from mitsar.raw.product import radar_of
+
+ALGORITHMS = ("bpa", "rda", "wda", "fsa")
+
+def focus(raw: xr.Dataset, algorithm: str = "bpa", grid: Grid | dict | None = None, *,
+          window: str = "rect", range_window: str | None = None,
+          azimuth_resolution: float | None = None, remove_rvp: bool = True,
+          motion_correction: bool = True, backend: str = "drjit",
+          range_upsample: int = 16, pixel_chunk: int | None = None,
+          algorithm_options: dict | None = None, progress: bool = False) -> xr.Dataset:
+    """Focus a raw product into an image.
+
+    Parameters
+    ----------
+    raw : xarray.Dataset
+        Raw product (:mod:`mitsar.raw.product`).
+    algorithm : {"bpa", "rda", "wda", "fsa"}
+        Focusing algorithm: back-projection (any trajectory, any grid) or the frequency-domain
+        range-Doppler, wavenumber-domain and frequency-scaling algorithms (straight track at
+        constant velocity, slant grids only; see ``docs/focusing.md``).
+    grid : SlantGrid, PlaneGrid, PointsGrid, dict or None
+        Output grid; a dict is passed to :func:`mitsar.focus.grid.from_dict`; default slant grid.
+    window : str
+        Azimuth window over the processed aperture (and the range window unless
+        ``range_window`` is given): "rect", "hamming", "hann", "taylor".
+    azimuth_resolution : float, optional
+        Nominal azimuth resolution rho [m]: the processed aperture spans ``lambda / (2 rho)``
+        in direction sine (paper: 0.10 m). Default: the whole beam.
+    remove_rvp : bool
+        Remove the residual video phase.
+    motion_correction : bool
+        Correct the continuous-motion (Doppler) range shift.
+    backend : {"drjit", "numpy"}
+        BPA kernel.
+    range_upsample : int
+        Zero-padding factor of the range FFT before linear interpolation.
+    pixel_chunk : int, optional
+        Pixels per kernel launch (memory bound); default 2^20, or 2^16 with a progress bar.
+    algorithm_options : dict, optional
+        Options of the frequency-domain algorithms (``rda``: ``src``; ``wda``: ``gate_cells``;
+        ``fsa``: ``upsample``, ``check_aliasing``, ``src``); see ``docs/focusing.md``.
+    progress : bool
+        Show a progress bar (back-projection).
+
+    Returns
+    -------
+    xarray.Dataset
+        Image product: ``image`` (two dims, metre coordinates), ``position`` (pixel world
+        positions), attributes ``range_resolution``, ``azimuth_resolution``, ``range_axis``,
+        ``azimuth_axis``, grid description and provenance.
+    """
+    if algorithm not in ALGORITHMS:
+        raise ParameterError("focus", "algorithm", f"one of {ALGORITHMS}", algorithm)
+    if window not in WINDOWS:
+        raise ParameterError("focus", "window", f"one of {WINDOWS}", window)
+    range_window = window if range_window is None else range_window
+    if azimuth_resolution is not None and not azimuth_resolution > 0:
+        raise ParameterError("focus", "azimuth_resolution", "None or a resolution > 0 m",
+                             azimuth_resolution)
+    if backend not in ("drjit", "numpy"):
+        raise ParameterError("focus", "backend", "'drjit' or 'numpy'", backend)
+    if raw.attrs.get("product") != "raw":
+        raise ParameterError("focus", "raw", "a raw product (attribute product='raw')",
+                             raw.attrs.get("product"))
+    if isinstance(grid, dict):
+        grid = from_dict(grid)
+    grid = SlantGrid() if grid is None else grid
+
+    radar = radar_of(raw)
+    half_width = aperture_half_width(radar, azimuth_resolution)
+    if "reference_range" not in raw.variables:  # recordings carry their own sampling
+        _check_processed_band(raw, radar, half_width, azimuth_resolution)
+    nominal_azimuth = radar.wavelength / (4 * half_width)
+    processing = {"algorithm": algorithm, "window": window, "range_window": range_window,
+                  "azimuth_resolution_requested": -1.0 if azimuth_resolution is None
+                  else float(azimuth_resolution),
+                  "rvp_removed": int(remove_rvp), "motion_correction": int(motion_correction),
+                  "backend": backend}
+    if "reference_range" in raw.variables:
+        # Recorded data referenced to a scene point (mitsar.raw.recorded): back-projection only.
+        from mitsar.raw.recorded import focus_referenced
+
+        if algorithm != "bpa":
+            raise ParameterError("focus", "algorithm", "'bpa' for recorded data referenced to "
+                                 "a scene point (raw has 'reference_range')", algorithm)
+        values, layout, extra = focus_referenced(
+            raw, grid, azimuth_resolution=azimuth_resolution, window=window,
+            range_window=range_window, range_upsample=range_upsample)
+        coverage = np.ones(values.shape)
+        extra = {"rvp_removed": 0, "motion_correction": 0, "backend": "numpy", **extra}
+    elif algorithm != "bpa":
+        layout = grid.resolve(raw, radar, nominal_azimuth)
+        values, coverage, extra = focus_frequency_domain(
+            raw, algorithm, layout, half_width=half_width, window=window,
+            range_window=range_window, remove_rvp_flag=remove_rvp,
+            motion_correction=motion_correction, options=algorithm_options)
+        extra = {"backend": "numpy", **extra}
+    else:
+        layout = grid.resolve(raw, radar, nominal_azimuth)
+        values, coverage, extra = focus_bpa(
+            raw, layout["position"].reshape(-1, 3), half_width=half_width, window=window,
+            range_window=range_window, remove_rvp=remove_rvp,
+            motion_correction=motion_correction, backend=backend,
+            range_upsample=range_upsample, progress=progress,
+            pixel_chunk=pixel_chunk or (1 << 16 if progress else 1 << 20))
+    shape = layout["position"].shape[:2]
+    return make_image_product(raw, np.reshape(values, shape), layout, {**processing, **extra},
+                              coverage=np.reshape(coverage, shape))
+
+
+def _check_processed_band(raw: xr.Dataset, radar, half_width: float,
+                          azimuth_resolution: float | None) -> None:
+    """Refuse a hovering platform and a processed Doppler band wider than the PRF.
+
+    The processed band ``4 v h / lambda`` (h: half width in direction sine) must fit in the
+    PRF, else the azimuth spectrum aliases into ghosts.
+    """
+    speed = np.linalg.norm(raw["platform_velocity"].values, axis=-1)
+    if not np.all(np.isfinite(speed)) or speed.mean() <= 1e-9:
+        raise ParameterError("focus", "platform_velocity", "a moving platform (a synthetic "
+                             "aperture needs motion)", f"mean speed {speed.mean():.3g} m/s")
+    band = 4 * speed.max() * half_width / radar.wavelength
+    if band > radar.prf:
+        hint = ("set azimuth_resolution (the whole beam is processed by default)"
+                if azimuth_resolution is None else "raise azimuth_resolution")
+        raise ParameterError(
+            "focus", "azimuth_resolution",
+            f"a processed Doppler band 4 v h / lambda <= PRF = {radar.prf:g} Hz ({hint}; "
+            f"the finest resolution at {speed.max():.3g} m/s is "
+            f"{speed.max() / radar.prf:.3g} m)", f"{azimuth_resolution} ({band:.4g} Hz)")

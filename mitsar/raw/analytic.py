@@ -1,0 +1,351 @@
+"""The analytic point-target simulator (paper §3.1): exact per-sample delays, no stop-and-go.
+
+For every sweep k and fast-time sample n the platform position ``p(eta_k + T/2 + t_n)`` and the
+target position ``q(eta_k + T/2 + t_n)`` give the two-way delay, and the echo is the dechirped
+signal of :mod:`mitsar.model.signal` (paper eqs. 1-2, with the residual video phase unless
+``rvp=False``). Amplitudes follow the radar equation with the two-way antenna pattern at
+mid-sweep (within one 4 ms sweep it changes by < 1% at the beam edge, a second-order effect
+since mid-sweep is the centre of the symmetric fast-time interval).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import drjit as dr
+import numpy as np
+import xarray as xr
+from drjit.llvm import Float32, Float64, UInt32
+from numpy.typing import NDArray
+from tqdm.auto import tqdm
+
+from mitsar.backend import require_llvm
+from mitsar.errors import ParameterError
+from mitsar.model.geometry.antenna import two_way_pattern
+from mitsar.model.geometry.attitude import Look, antenna_frame
+from mitsar.model.geometry.trajectory import Trajectory
+from mitsar.model.radar import SPEED_OF_LIGHT, Radar
+from mitsar.raw.product import make_raw_product, sweep_geometry
+from mitsar.model.signal import (
+    apparent_beat_frequency,
+    dechirped_phase_cycles,
+    fast_time,
+    radar_equation_amplitude,
+    sweep_count,
+    two_way_delay,
+)
+from mitsar.model.targets import Background, PointTarget
+
+TABLE1_AZIMUTH_RESOLUTION = 0.10
+"""Azimuth resolution of paper Table 1 [m], the default azimuth size of a background cell."""
+
+
+def background_cell_area(radar: Radar, background: Background, platform_position: NDArray,
+                         azimuth_resolution: float = TABLE1_AZIMUTH_RESOLUTION) -> float:
+    """Area of one resolution cell on the background patch [m^2].
+
+    Ground-range cell ``(c / 2B) / sin(theta_inc)`` (theta_inc: incidence on the patch seen
+    from ``platform_position``) times the azimuth resolution.
+    """
+    normal = np.cross(background.axis_u, background.axis_v)
+    line_of_sight = np.asarray(background.center) - platform_position
+    cos_incidence = abs(line_of_sight @ normal) / np.linalg.norm(line_of_sight)
+    sin_incidence = max(np.sqrt(max(1.0 - cos_incidence**2, 0.0)), 1e-3)
+    return radar.range_resolution / sin_incidence * azimuth_resolution
+
+
+def _check_inputs(radar: Radar, trajectory: Trajectory, look: Look,
+                  targets: Sequence[PointTarget], background: Background | None) -> None:
+    if not isinstance(radar, Radar):
+        raise ParameterError("simulate_point_targets", "radar", "a mitsar.Radar", type(radar))
+    if not isinstance(trajectory, Trajectory):
+        raise ParameterError("simulate_point_targets", "trajectory", "a mitsar.Trajectory",
+                             type(trajectory))
+    if not isinstance(look, Look):
+        raise ParameterError("simulate_point_targets", "look", "a mitsar.Look", type(look))
+    for index, target in enumerate(targets):
+        if not isinstance(target, PointTarget):
+            raise ParameterError("simulate_point_targets", f"targets[{index}]",
+                                 "a mitsar.PointTarget", type(target))
+    if background is not None and not isinstance(background, Background):
+        raise ParameterError("simulate_point_targets", "background",
+                             "None or a mitsar.Background", type(background))
+    if not targets and background is None:
+        raise ParameterError("simulate_point_targets", "targets",
+                             "at least one target or a background", targets)
+
+
+def simulate_point_targets(radar: Radar, trajectory: Trajectory, look: Look,
+                           targets: Sequence[PointTarget] = (),
+                           background: Background | None = None, seed: int = 0, *,
+                           rvp: bool = True, normalized: bool = False, pattern: bool = True,
+                           noise: bool = False, progress: bool = False, backend: str = "drjit",
+                           chunk_elements: int = 2**22) -> xr.Dataset:
+    """Simulate dechirped FMCW raw data of point targets and a fluctuating background.
+
+    Parameters
+    ----------
+    radar : Radar
+    trajectory : Trajectory
+    look : Look
+    targets : sequence of PointTarget
+    background : Background, optional
+        Fluctuating background (paper eq. 4).
+    seed : int
+        Seed of every random draw (background, noise); recorded in the product.
+    rvp : bool
+        Include the residual video phase (default) or drop it (paper eq. 1).
+    normalized : bool
+        Unit amplitude per unit sqrt(RCS) instead of radar-equation amplitudes (paper eq. 1).
+    pattern : bool
+        Weight by the two-way antenna pattern.
+    noise : bool
+        Add thermal noise ``k T0 F f_s`` per complex sample (needs ``radar.noise_figure_db``).
+    progress : bool
+        Show a progress bar.
+    backend : {"drjit", "numpy"}
+        The Dr.Jit kernel (one lane per sample, a loop over scatterers) or the NumPy reference.
+    chunk_elements : int
+        Bound on the lanes (Dr.Jit: sweeps x samples) or on sweeps x samples x scatterers
+        (NumPy) evaluated at once (memory).
+
+    Returns
+    -------
+    xarray.Dataset
+        The raw product (:mod:`mitsar.raw.product`).
+
+    Examples
+    --------
+    >>> import mitsar
+    >>> raw = mitsar.simulate_point_targets(
+    ...     mitsar.Radar(), mitsar.Trajectory.linear([14.8, 1.4, 4.5], [0.5, 0, 0], 0.1),
+    ...     mitsar.Look(55.7), [mitsar.PointTarget([15.0, 8.0, 0.0])])
+    >>> raw["raw"].dims
+    ('sweep', 'sample')
+    """
+    targets = list(targets)
+    _check_inputs(radar, trajectory, look, targets, background)
+    if backend not in ("drjit", "numpy"):
+        raise ParameterError("simulate_point_targets", "backend", "'drjit' or 'numpy'", backend)
+    radar.check_prf(trajectory.max_speed())
+    if noise and radar.noise_figure_db is None:
+        raise ParameterError("simulate_point_targets", "noise",
+                             "noise=False unless radar.noise_figure_db is set", noise)
+    if noise and normalized:
+        raise ParameterError("simulate_point_targets", "noise",
+                             "noise=False with normalized=True (noise is in watts, normalised "
+                             "echoes are not)", noise)
+    sweeps = sweep_count(radar, trajectory.duration)
+    if sweeps < 1:
+        raise ParameterError("simulate_point_targets", "trajectory.duration",
+                             f">= one sweep ({radar.sweep_duration:g} s)", trajectory.duration)
+    rng = np.random.default_rng(seed)
+    geometry = sweep_geometry(radar, trajectory, look, sweeps)
+
+    positions = np.array([t.position for t in targets], dtype=float).reshape(-1, 3)
+    velocities = np.array([t.velocity for t in targets], dtype=float).reshape(-1, 3)
+    reflectivity = np.broadcast_to(np.sqrt([t.rcs for t in targets]),
+                                   (sweeps, len(targets))).astype(complex)
+    extra_attrs: dict = {}
+    background_draw = None
+    if background is not None:
+        mid = geometry["position"][sweeps // 2]
+        cell_area = background_cell_area(radar, background, mid)
+        count = background.scatterer_count(cell_area)
+        background_positions = background.draw_positions(count, rng)
+        shape = (sweeps, count) if background.mode == "pulse" else (count,)
+        background_reflectivity = np.broadcast_to(
+            background.draw_reflectivities(shape, rng, cell_area), (sweeps, count))
+        positions = np.vstack([positions, background_positions])
+        velocities = np.vstack([velocities, np.zeros((count, 3))])
+        reflectivity = np.hstack([reflectivity, background_reflectivity])
+        background_draw = (background_positions, background_reflectivity[0])
+        extra_attrs.update(background_scatterers=count, background_cell_area=cell_area,
+                           background_mode=background.mode,
+                           background_cell_rcs_db=background.cell_rcs_db)
+
+    _check_beat_frequencies(radar, geometry, positions, velocities, len(targets))
+    amplitude = _echo_amplitudes(radar, look, geometry, positions, velocities, reflectivity,
+                                 normalized=normalized, pattern=pattern)
+    sum_echoes = _sum_echoes_drjit if backend == "drjit" else _sum_echoes_numpy
+    samples = sum_echoes(radar, trajectory, geometry, positions, velocities, amplitude, rvp=rvp,
+                         progress=progress, chunk_elements=chunk_elements)
+    if noise:
+        sigma = np.sqrt(radar.noise_power / 2)
+        samples += sigma * (rng.standard_normal(samples.shape)
+                            + 1j * rng.standard_normal(samples.shape))
+
+    config = {"targets": [{"position": list(t.position), "rcs": t.rcs,
+                           "velocity": list(t.velocity)} for t in targets],
+              "trajectory": trajectory.describe(),
+              "background": None if background is None else {
+                  "center": list(background.center), "size": list(background.size),
+                  "cell_rcs_db": background.cell_rcs_db,
+                  "scatterers_per_cell": background.scatterers_per_cell,
+                  "mode": background.mode, "axis_u": list(background.axis_u),
+                  "axis_v": list(background.axis_v)}}
+    product = make_raw_product(
+        samples, radar, look, geometry, rvp=rvp,
+        attrs={"seed": int(seed), "normalized": int(normalized), "pattern": int(pattern),
+               "noise": int(noise), "simulator": "analytic point targets",
+               "trajectory_kind": trajectory.kind,
+               "trajectory_straight": int(trajectory.is_straight), "config": config,
+               **extra_attrs})
+    product["target_position"] = (("target", "xyz"), np.array(
+        [t.position for t in targets], dtype=float).reshape(-1, 3), {"units": "m"})
+    product["target_rcs"] = (("target",), np.array([t.rcs for t in targets], dtype=float),
+                             {"units": "m^2"})
+    if background_draw is not None:
+        product["background_position"] = (("scatterer", "xyz"), background_draw[0],
+                                          {"units": "m"})
+        product["background_reflectivity"] = (("scatterer",), background_draw[1], {
+            "units": "m", "long_name": "complex sqrt(RCS) of each scatterer, first sweep"})
+    return product
+
+
+def _check_beat_frequencies(radar: Radar, geometry: dict, positions: NDArray,
+                            velocities: NDArray, target_count: int) -> None:
+    """Refuse echoes whose beat frequency exceeds the Nyquist limit (they would wrap around).
+
+    ``K tau + f_c dtau/dt`` (:func:`mitsar.model.signal.apparent_beat_frequency`) at mid-sweep of
+    the first, middle and last sweeps, for every scatterer.
+    """
+    sweeps = len(geometry["slow_time"])
+    for sweep in sorted({0, sweeps // 2, sweeps - 1}):
+        time = geometry["slow_time"][sweep] + radar.sweep_duration / 2
+        offset = positions + velocities * time - geometry["position"][sweep]
+        slant_range = np.linalg.norm(offset, axis=-1)
+        rate = 2 / SPEED_OF_LIGHT * np.einsum(
+            "mi,mi->m", velocities - geometry["velocity"][sweep], offset) / slant_range
+        beat = apparent_beat_frequency(2 * slant_range / SPEED_OF_LIGHT, rate, radar)
+        worst = int(np.argmax(np.abs(beat)))
+        if abs(beat[worst]) > radar.sampling_frequency / 2:
+            name = f"targets[{worst}]" if worst < target_count else "background"
+            raise ParameterError(
+                "simulate_point_targets", name,
+                f"an echo within the receiver's band: beat frequency <= fs/2 = "
+                f"{radar.sampling_frequency / 2:g} Hz, i.e. slant range <= "
+                f"{radar.max_range:g} m (max_range)",
+                f"{beat[worst]:.4g} Hz at {slant_range[worst]:.3f} m (sweep {sweep})")
+
+
+def _echo_amplitudes(radar: Radar, look: Look, geometry: dict, positions: NDArray,
+                     velocities: NDArray, reflectivity: NDArray, *, normalized: bool,
+                     pattern: bool) -> NDArray[np.complex128]:
+    """Complex amplitude of every scatterer in every sweep, shape (sweeps, scatterers).
+
+    sqrt(RCS) reflectivity, times the two-way pattern and the radar equation (per unit RCS) at
+    mid-sweep (paper eq. 2).
+    """
+    offset = positions[None, :, :] + velocities[None, :, :] * (
+        geometry["slow_time"][:, None, None] + radar.sweep_duration / 2) \
+        - geometry["position"][:, None, :]
+    centre_range = np.linalg.norm(offset, axis=-1)
+    amplitude = reflectivity.astype(complex)
+    if pattern:
+        frames = antenna_frame(look, *geometry["attitude"].T)
+        directions = offset / centre_range[..., None]
+        amplitude = amplitude * np.sqrt(two_way_pattern(
+            directions, frames[:, None], radar.azimuth_beamwidth, radar.elevation_beamwidth))
+    if not normalized:
+        amplitude = amplitude * radar_equation_amplitude(radar, 1.0, centre_range)
+    return amplitude
+
+
+def _sample_times(radar: Radar, geometry: dict, sweep_slice: slice) -> NDArray:
+    """Absolute time of every sample of the sweeps in ``sweep_slice``, shape (sweeps, N_s)."""
+    return (geometry["slow_time"][sweep_slice, None] + radar.sweep_duration / 2
+            + fast_time(radar)[None, :])
+
+
+def _sum_echoes_numpy(radar: Radar, trajectory: Trajectory, geometry: dict, positions: NDArray,
+                      velocities: NDArray, amplitude: NDArray, *, rvp: bool, progress: bool,
+                      chunk_elements: int) -> NDArray[np.complex128]:
+    """Reference sum of the dechirped echoes, vectorised over (sweep, sample, scatterer).
+
+    The Python loop runs over memory chunks only.
+    """
+    sweeps = len(geometry["slow_time"])
+    times = fast_time(radar)
+    sample_count = len(times)
+    samples = np.zeros((sweeps, sample_count), dtype=complex)
+    sweeps_per_chunk = max(1, min(sweeps, chunk_elements // sample_count))
+    scatterers_per_chunk = max(1, chunk_elements // (sweeps_per_chunk * sample_count))
+    chunks = [(s, m) for s in range(0, sweeps, sweeps_per_chunk)
+              for m in range(0, len(positions), scatterers_per_chunk)]
+    for sweep0, scatterer0 in tqdm(chunks, disable=not progress, desc="simulate", unit="chunk"):
+        sweep_slice = slice(sweep0, sweep0 + sweeps_per_chunk)
+        scatterer_slice = slice(scatterer0, scatterer0 + scatterers_per_chunk)
+        absolute_time = _sample_times(radar, geometry, sweep_slice)
+        platform = trajectory.position(absolute_time)
+        target = (positions[None, None, scatterer_slice, :]
+                  + velocities[None, None, scatterer_slice, :] * absolute_time[..., None, None])
+        delay = two_way_delay(platform[:, :, None, :], target)
+        cycles = dechirped_phase_cycles(delay, times[None, :, None], radar, rvp=rvp)
+        phasor = np.exp(2j * np.pi * (cycles - np.round(cycles)))
+        samples[sweep_slice] += np.einsum("snm,sm->sn", phasor,
+                                          amplitude[sweep_slice, scatterer_slice])
+    return samples
+
+
+def _sum_echoes_drjit(radar: Radar, trajectory: Trajectory, geometry: dict, positions: NDArray,
+                      velocities: NDArray, amplitude: NDArray, *, rvp: bool, progress: bool,
+                      chunk_elements: int) -> NDArray[np.complex128]:
+    """Sum of the dechirped echoes as a Dr.Jit kernel: one lane per sample, loop over scatterers.
+
+    Same formulas as :func:`_sum_echoes_numpy` (``mitsar.model.signal``); geometry and phase in
+    float64, sin/cos of the wrapped phase in float32.
+    """
+    require_llvm()
+    sweeps = len(geometry["slow_time"])
+    times = fast_time(radar)
+    sample_count = len(times)
+    sweeps_per_chunk = max(1, min(sweeps, chunk_elements // sample_count))
+    scatterers = len(positions)
+    scatterer_arrays = [Float64(np.ascontiguousarray(a)) for a in (*positions.T, *velocities.T)]
+    constants = (dr.opaque(Float64, radar.carrier_frequency), dr.opaque(Float64, radar.chirp_rate),
+                 dr.opaque(Float64, 1.0 if rvp else 0.0), dr.opaque(UInt32, scatterers),
+                 dr.opaque(UInt32, sample_count))
+    samples = np.zeros((sweeps, sample_count), dtype=complex)
+    for sweep0 in tqdm(range(0, sweeps, sweeps_per_chunk), disable=not progress,
+                       desc="simulate", unit="chunk"):
+        sweep_slice = slice(sweep0, sweep0 + sweeps_per_chunk)
+        absolute_time = _sample_times(radar, geometry, sweep_slice)
+        platform = trajectory.position(absolute_time).reshape(-1, 3)
+        chunk_amplitude = np.ascontiguousarray(amplitude[sweep_slice])
+        lanes = (Float64(platform[:, 0]), Float64(platform[:, 1]), Float64(platform[:, 2]),
+                 Float64(absolute_time.ravel()), Float64(np.tile(times, len(chunk_amplitude))))
+        real, imag = _echo_loop(*lanes, *scatterer_arrays, Float64(chunk_amplitude.real.ravel()),
+                                Float64(chunk_amplitude.imag.ravel()), *constants)
+        dr.eval(real, imag)
+        samples[sweep_slice] = (np.asarray(real) + 1j * np.asarray(imag)).reshape(-1, sample_count)
+    return samples
+
+
+@dr.syntax
+def _echo_loop(px, py, pz, absolute_time, fast, qx, qy, qz, vx, vy, vz, amp_real,  # noqa: ANN001, ANN202
+               amp_imag, carrier, chirp_rate, rvp, scatterers, sample_count):
+    """Per sample lane: sum over scatterers of a exp{j 2 pi [f_c tau + K tau t - rvp K tau^2/2]}."""
+    two_over_c = 2.0 / SPEED_OF_LIGHT
+    lane = dr.arange(UInt32, dr.width(px))
+    sweep = lane // sample_count
+    acc_real = dr.zeros(Float64, dr.width(px))
+    acc_imag = dr.zeros(Float64, dr.width(px))
+    m = UInt32(0)
+    while m < scatterers:
+        dx = px - (dr.gather(Float64, qx, m) + dr.gather(Float64, vx, m) * absolute_time)
+        dy = py - (dr.gather(Float64, qy, m) + dr.gather(Float64, vy, m) * absolute_time)
+        dz = pz - (dr.gather(Float64, qz, m) + dr.gather(Float64, vz, m) * absolute_time)
+        delay = two_over_c * dr.sqrt(dx * dx + dy * dy + dz * dz)
+        cycles = (carrier * delay + chirp_rate * delay * fast
+                  - rvp * 0.5 * chirp_rate * delay * delay)
+        # Wrapped to one cycle in float64, then sin/cos in float32 (error < 1e-6 rad).
+        sin_phase, cos_phase = dr.sincos(Float32(2 * dr.pi * (cycles - dr.round(cycles))))
+        sin_phase, cos_phase = Float64(sin_phase), Float64(cos_phase)
+        index = sweep * scatterers + m
+        a_real = dr.gather(Float64, amp_real, index)
+        a_imag = dr.gather(Float64, amp_imag, index)
+        acc_real += a_real * cos_phase - a_imag * sin_phase
+        acc_imag += a_real * sin_phase + a_imag * cos_phase
+        m += 1
+    return acc_real, acc_imag

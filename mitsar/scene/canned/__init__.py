@@ -1,0 +1,55 @@
+"""Canned Mitsuba scenes of mitsar (installed as ``mitsar.scene.canned``).
+
+================== =========================================================================
+name               content
+================== =========================================================================
+control_volume     the paper's 30 × 10 × 6 m room (Table 3): concrete floor, ceiling, 4 walls
+point_target       one point target (RCS 1 m²) at [15, 8, 0.03] m above an absorbing floor
+dihedral           floor (x-y) and the wall y = 10 m (x-z): the dihedral edge of §4.3
+trihedral          floor, wall y = 10 m and wall x = 0 (y-z): the trihedral corner of §4.3
+cross_section_2d   the room's y-z cross-section extruded along x (floor, ceiling, walls
+                   y = 0 and y = 10 m; no end walls) for the 2D cases of §4.2 (Figs. 10-11)
+box_obstacle       concrete floor and a 1 × 0.5 × 2 m concrete cabinet (PLY mesh)
+================== =========================================================================
+
+Walls are one rectangle each with the normal pointing into the room. Every scene declares
+``<default>`` parameters (e.g. ``material``) that :func:`mitsar.scene.scene.load_scene` accepts as
+keywords. No scene names an integrator or sensor; the radar integrator is chosen in Python.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from mitsar.errors import ParameterError
+
+SCENE_DIR = Path(__file__).resolve().parent
+"""Directory holding the XML files (``meshes/`` beside them)."""
+
+
+def names() -> list[str]:
+    """Names of the canned scenes (XML file stems), sorted."""
+    return sorted(p.stem for p in SCENE_DIR.glob("*.xml"))
+
+
+def path(name: str) -> Path:
+    """Path of a canned scene's XML file.
+
+    Parameters
+    ----------
+    name : str
+        Scene name, with or without ``.xml`` (see :func:`names`).
+
+    Returns
+    -------
+    pathlib.Path
+
+    Raises
+    ------
+    ParameterError
+        For an unknown name, listing the available ones.
+    """
+    stem = name[:-4] if isinstance(name, str) and name.endswith(".xml") else name
+    if not isinstance(stem, str) or stem not in names():
+        raise ParameterError("mitsar.scene.canned.path", "name", f"one of {names()}", name)
+    return SCENE_DIR / f"{stem}.xml"
