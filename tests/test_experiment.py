@@ -216,7 +216,7 @@ def test_scene_resolved_against_the_file(tmp_path):
     (tmp_path / "scenes").mkdir()
     (tmp_path / "scenes" / "room.xml").write_text("<scene/>")
     path = tmp_path / "exp.toml"
-    path.write_text('scene = "mitsar/scene/canned/room.xml"\n' + TOML)
+    path.write_text('scene = "scenes/room.xml"\n' + TOML)
     assert load_experiment(path).scene == str((tmp_path / "scenes" / "room.xml").resolve())
     path.write_text('scene = "control_volume"\n' + TOML)
     assert load_experiment(path).scene == "control_volume"  # a canned scene name

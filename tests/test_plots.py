@@ -162,7 +162,7 @@ def test_beam_range_marks_closed_form():
     trajectory = mitsar.Trajectory.linear([0.0, 8.0, 1.0], [0.5, 0, 0], 0.2)
     raw = mitsar.simulate_point_targets(radar, trajectory, mitsar.Look(60.0),
                                         [mitsar.PointTarget([0.05, 9.7, 0.0])], normalized=True)
-    image = mitsar.focus(raw, grid=mitsar.focus.grid.SlantGrid(along_track=[0, 0.1, 0.05],
+    image = mitsar.focus(raw, grid=mitsar.grid.SlantGrid(along_track=[0, 0.1, 0.05],
                                                         slant_range=[1.0, 3.0, 0.5]))
     half = radar.elevation_beamwidth / 2
     marks = beam_range_marks(image)

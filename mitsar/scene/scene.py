@@ -717,7 +717,7 @@ def write_ply(path: str | os.PathLike, vertices: Any, faces: Any, normals: Any =
         props += ["nx", "ny", "nz"]
     data = np.concatenate(columns, axis=1)
     header = ["ply", "format " + ("binary_little_endian" if binary else "ascii") + " 1.0",
-              "comment written by mitsar.scene.scene.write_ply", f"element vertex {v.shape[0]}"]
+              "comment written by mitsar.scene.write_ply", f"element vertex {v.shape[0]}"]
     header += [f"property float {p}" for p in props]
     header += [f"element face {f.shape[0]}", "property list uchar int vertex_indices",
                "end_header"]
