@@ -25,8 +25,16 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from mitsar.version import __version__
+from mitsar.ambiguity.gradient import run_ambiguity_experiment
 from mitsar.errors import MitsarError
+from mitsar.experiment import montecarlo
+from mitsar.experiment.examples import example_path
+from mitsar.experiment.loading import focus_options_from_config, load_experiment, load_grid
+from mitsar.experiment.options import ALGORITHMS, ISLR_EXTENTS, WINDOWS, FocusOptions
+from mitsar.experiment.runs import run_focus, run_metrics, run_simulation
+from mitsar.focus.compression import range_compress
+from mitsar.io import ProductFileError, check_writable, load, save, to_jsonable, write_json
+from mitsar.version import __version__
 
 __all__ = ["build_parser", "main"]
 
@@ -60,9 +68,6 @@ def _log(args: argparse.Namespace, message: str) -> None:
 # --- commands -------------------------------------------------------------------------------
 def cmd_simulate(args: argparse.Namespace) -> int:
     """``mitsar simulate``: experiment file -> raw product."""
-    from mitsar.experiment.config import load_experiment, run_simulation
-    from mitsar.io import check_writable, save
-
     check_writable(args.output, args.overwrite)
     experiment = load_experiment(args.experiment)
     if args.seed is not None:
@@ -81,9 +86,6 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 
 def cmd_range(args: argparse.Namespace) -> int:
     """``mitsar range``: raw product -> range-compressed product."""
-    from mitsar.focus import range_compress
-    from mitsar.io import check_writable, load, save
-
     check_writable(args.output, args.overwrite)
     raw = load(args.raw, product="raw")
     profile = range_compress(raw, window=args.window)
@@ -95,8 +97,6 @@ def cmd_range(args: argparse.Namespace) -> int:
 
 def _focus_options(args: argparse.Namespace, raw: Any) -> Any:
     """Focus options: command-line flags over ``--grid`` over the raw's experiment."""
-    from mitsar.experiment.config import FocusOptions, focus_options_from_config, load_grid
-
     config = raw.attrs.get("experiment")
     options = (focus_options_from_config(config, where=f"{args.raw} (experiment)")
                if config else FocusOptions())
@@ -121,9 +121,6 @@ def _focus_options(args: argparse.Namespace, raw: Any) -> Any:
 
 def cmd_focus(args: argparse.Namespace) -> int:
     """``mitsar focus``: raw product -> image product."""
-    from mitsar.experiment.config import run_focus
-    from mitsar.io import check_writable, load, save
-
     check_writable(args.output, args.overwrite)
     raw = load(args.raw, product="raw")
     options = _focus_options(args, raw)
@@ -154,9 +151,6 @@ def format_metrics(metrics: dict[str, Any]) -> str:
 
 def cmd_metrics(args: argparse.Namespace) -> int:
     """``mitsar metrics``: image product -> IRW, PSLR, ISLR."""
-    from mitsar.experiment.config import run_metrics
-    from mitsar.io import check_writable, load, to_jsonable, write_json
-
     if args.output is not None:
         check_writable(args.output, args.overwrite)
     image = load(args.image, product="image")
@@ -176,6 +170,7 @@ def cmd_metrics(args: argparse.Namespace) -> int:
 
 def cmd_plot(args: argparse.Namespace) -> int:
     """``mitsar plot``: product file -> figure."""
+    # mitsar.plots imports matplotlib: kept lazy so that the other commands start fast
     from mitsar.plots.products import plot_file
 
     plot_file(args.file, args.output, overwrite=args.overwrite,
@@ -186,9 +181,6 @@ def cmd_plot(args: argparse.Namespace) -> int:
 
 def cmd_demo(args: argparse.Namespace) -> int:
     """``mitsar demo``: the paper's point-target experiment end to end."""
-    from mitsar.experiment.config import example_path, load_experiment
-    from mitsar.io import ProductFileError, check_writable
-
     out = Path(args.output)
     if out.exists() and not out.is_dir():
         raise ProductFileError(f"{out}: exists and is not a folder")
@@ -213,9 +205,6 @@ def run_demo(experiment: Any, paths: dict[str, Path], overwrite: bool = False,
     dict
         ``raw`` and ``image`` datasets, ``metrics`` (dict), ``seconds`` per step.
     """
-    from mitsar.experiment.config import run_focus, run_metrics, run_simulation
-    from mitsar.io import save, to_jsonable, write_json
-
     log = log or (lambda message: None)
     seconds: dict[str, float] = {}
     clock = time.perf_counter()
@@ -244,6 +233,7 @@ def run_demo(experiment: Any, paths: dict[str, Path], overwrite: bool = False,
 def _demo_figures(raw: Any, image: Any, metrics: dict[str, Any], paths: dict[str, Path],
                   overwrite: bool) -> None:
     """The four demo figures."""
+    # matplotlib (and mitsar.plots, which imports it) stays lazy: only figures need it
     import matplotlib.pyplot as plt
 
     from mitsar.plots.products import (
@@ -299,8 +289,6 @@ def demo_summary(experiment: Any, results: dict[str, Any], out: Path) -> str:
 # --- parser ---------------------------------------------------------------------------------
 def cmd_montecarlo(args: argparse.Namespace) -> int:
     """``mitsar montecarlo``: metric statistics over background realisations (Tables 4-5)."""
-    from mitsar.experiment import montecarlo
-
     out = Path(args.output)
     _log(args, f"Monte Carlo: {args.realisations} realisations x {', '.join(args.algorithms)}")
     summary = montecarlo.run(args.experiment, args.realisations, args.algorithms, out_dir=out,
@@ -317,6 +305,7 @@ def cmd_montecarlo(args: argparse.Namespace) -> int:
 
 def cmd_rays(args: argparse.Namespace) -> int:
     """``mitsar rays``: ray geometry and echo figures of a scene experiment."""
+    # mitsar.plots imports matplotlib: kept lazy so that the other commands start fast
     from mitsar.plots.rays import run_figures
 
     _log(args, f"tracing rays of {args.experiment} (sweep {args.sweep}) ...")
@@ -332,8 +321,6 @@ def cmd_rays(args: argparse.Namespace) -> int:
 
 def cmd_ambiguity(args: argparse.Namespace) -> int:
     """``mitsar ambiguity``: gradient-method maps of one or more trajectories."""
-    from mitsar.ambiguity.gradient import run_ambiguity_experiment
-
     _log(args, f"ambiguity maps of {args.experiment} ...")
     summary = run_ambiguity_experiment(args.experiment, args.output, overwrite=args.overwrite,
                                        figures=False if args.no_figures else None,
@@ -351,10 +338,32 @@ def _add_output(parser: argparse.ArgumentParser, help_text: str, required: bool 
                         help="replace the output if it exists (never replaced otherwise)")
 
 
+def _folder_command(commands: Any, common: argparse.ArgumentParser, name: str, func: Any,
+                    summary: str, description: str, metavar: str,
+                    overwrite: bool = True) -> argparse.ArgumentParser:
+    """A sub-command reading an experiment file and writing several files into a folder."""
+    sub = commands.add_parser(name, parents=[common], help=summary, description=description)
+    sub.add_argument("experiment", metavar=metavar)
+    sub.add_argument("-o", "--output", required=True, metavar="DIR", help="output folder")
+    if overwrite:
+        sub.add_argument("--overwrite", action="store_true", help="replace existing outputs")
+    sub.set_defaults(func=func)
+    return sub
+
+
+def _file_command(commands: Any, common: argparse.ArgumentParser, name: str, func: Any,
+                  summary: str, description: str, argument: tuple[str, str],
+                  output: str, output_required: bool = True) -> argparse.ArgumentParser:
+    """A sub-command reading one file (``argument``: name, metavar) and writing ``output``."""
+    sub = commands.add_parser(name, parents=[common], help=summary, description=description)
+    sub.add_argument(argument[0], metavar=argument[1])
+    _add_output(sub, output, required=output_required)
+    sub.set_defaults(func=func)
+    return sub
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``mitsar`` command."""
-    from mitsar.experiment.config import ALGORITHMS, ISLR_EXTENTS, WINDOWS
-
     parser = argparse.ArgumentParser(
         prog="mitsar", description="FMCW mm-wave SAR simulation and processing "
         "(Scannapieco et al. 2016). See docs/cli.md.")
@@ -366,26 +375,21 @@ def build_parser() -> argparse.ArgumentParser:
                         help="no progress bars or messages on stderr")
     commands = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
-    sub = commands.add_parser("simulate", parents=[common], help="simulate raw data from a "
-                              "TOML experiment", description="Simulate the raw product of a "
-                              "TOML experiment file (docs/experiments.md).")
-    sub.add_argument("experiment", metavar="EXPERIMENT.toml")
-    _add_output(sub, "raw product to write (.nc)")
+    sub = _file_command(commands, common, "simulate", cmd_simulate,
+                        "simulate raw data from a TOML experiment", "Simulate the raw product "
+                        "of a TOML experiment file (docs/experiments.md).",
+                        ("experiment", "EXPERIMENT.toml"), "raw product to write (.nc)")
     sub.add_argument("--seed", type=int, help="override [simulation] seed")
-    sub.set_defaults(func=cmd_simulate)
 
-    sub = commands.add_parser("range", parents=[common], help="range-compress raw data",
-                              description="Range-compress a raw product (RVP removed).")
-    sub.add_argument("raw", metavar="RAW.nc")
-    _add_output(sub, "range-compressed product to write (.nc)")
+    sub = _file_command(commands, common, "range", cmd_range, "range-compress raw data",
+                        "Range-compress a raw product (RVP removed).", ("raw", "RAW.nc"),
+                        "range-compressed product to write (.nc)")
     sub.add_argument("--window", choices=WINDOWS, default="rect", help="range window")
-    sub.set_defaults(func=cmd_range)
 
-    sub = commands.add_parser("focus", parents=[common], help="focus raw data into an image",
-                              description="Focus a raw product. Options default to the "
-                              "[focus] table of the experiment the raw data came from.")
-    sub.add_argument("raw", metavar="RAW.nc")
-    _add_output(sub, "image product to write (.nc)")
+    sub = _file_command(commands, common, "focus", cmd_focus, "focus raw data into an image",
+                        "Focus a raw product. Options default to the [focus] table of the "
+                        "experiment the raw data came from.", ("raw", "RAW.nc"),
+                        "image product to write (.nc)")
     sub.add_argument("-a", "--algorithm", choices=ALGORITHMS, help="focusing algorithm")
     sub.add_argument("--window", choices=WINDOWS, help="range and azimuth window")
     sub.add_argument("--azimuth-resolution", type=float, metavar="M",
@@ -396,28 +400,23 @@ def build_parser() -> argparse.ArgumentParser:
                      help="output grid: a TOML file with a [grid] table (or [focus.grid])")
     sub.add_argument("--default-grid", action="store_true",
                      help="use the algorithm's default slant grid (ignore the experiment's)")
-    sub.set_defaults(func=cmd_focus)
 
-    sub = commands.add_parser("metrics", parents=[common], help="IRW, PSLR, ISLR of a target",
-                              description="Impulse-response metrics of a point target.")
-    sub.add_argument("image", metavar="IMAGE.nc")
+    sub = _file_command(commands, common, "metrics", cmd_metrics, "IRW, PSLR, ISLR of a target",
+                        "Impulse-response metrics of a point target.", ("image", "IMAGE.nc"),
+                        "also write the metrics as JSON", output_required=False)
     sub.add_argument("--target", type=float, nargs=3, metavar=("X", "Y", "Z"),
                      help="target world position [m] (default: from the experiment)")
     sub.add_argument("--islr-extent", metavar="EXTENT",
                      help=f"ISLR side-lobe extent: {', '.join(ISLR_EXTENTS)} or a number of "
                      "cells (default: from the experiment, else 'paper')")
     sub.add_argument("--json", action="store_true", help="print JSON instead of a table")
-    _add_output(sub, "also write the metrics as JSON", required=False)
-    sub.set_defaults(func=cmd_metrics)
 
-    sub = commands.add_parser("plot", parents=[common], help="plot a product file",
-                              description="Plot a product: raw/range-compressed -> range-"
-                              "compressed matrix; image -> image in dB.")
-    sub.add_argument("file", metavar="FILE.nc")
-    _add_output(sub, "figure to write (.png, .pdf, .svg)")
+    sub = _file_command(commands, common, "plot", cmd_plot, "plot a product file",
+                        "Plot a product: raw/range-compressed -> range-compressed matrix; "
+                        "image -> image in dB.", ("file", "FILE.nc"),
+                        "figure to write (.png, .pdf, .svg)")
     sub.add_argument("--dynamic-range", type=float, metavar="DB",
                      help="colour scale depth below the peak [dB]")
-    sub.set_defaults(func=cmd_plot)
 
     sub = commands.add_parser("demo", parents=[common], help="run the paper's point-target "
                               "experiment", description="Simulate, focus and measure the "
@@ -429,13 +428,12 @@ def build_parser() -> argparse.ArgumentParser:
                      help="bundled example to run (default: paper_point_target)")
     sub.set_defaults(func=cmd_demo)
 
-    sub = commands.add_parser("montecarlo", parents=[common], help="metric statistics over "
-                              "background realisations", description="Monte Carlo over "
-                              "background realisations of an experiment, for each algorithm: "
-                              "mean and variance of IRW, PSLR, ISLR (paper Tables 4-5). "
-                              "Interrupted runs resume from the record in the output folder.")
-    sub.add_argument("experiment", metavar="EXPERIMENT.toml")
-    sub.add_argument("-o", "--output", required=True, metavar="DIR", help="output folder")
+    sub = _folder_command(commands, common, "montecarlo", cmd_montecarlo,
+                          "metric statistics over background realisations",
+                          "Monte Carlo over background realisations of an experiment, for each "
+                          "algorithm: mean and variance of IRW, PSLR, ISLR (paper Tables 4-5). "
+                          "Interrupted runs resume from the record in the output folder.",
+                          "EXPERIMENT.toml", overwrite=False)
     sub.add_argument("-n", "--realisations", type=int, default=10, help="realisations (10)")
     sub.add_argument("-a", "--algorithms", nargs="+", choices=ALGORITHMS,
                      default=list(ALGORITHMS), help="algorithms (default: all)")
@@ -444,29 +442,22 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_argument("--cuts", type=int, default=5, metavar="N",
                      help="also plot cuts of N realisations over the nominal response "
                      "(paper Figs. 8-9; 0: none)")
-    sub.set_defaults(func=cmd_montecarlo)
 
-    sub = commands.add_parser("rays", parents=[common], help="ray geometry and echoes of a "
-                              "scene (paper Figs. 6, 10, 11)", description="Trace one sweep of "
-                              "a scene experiment with multipath and plot the ray geometry (2D "
-                              "or 3D) and the echoes after the range FFT, backscatter only and "
-                              "with reflections, near range / centre scene / far range marked.")
-    sub.add_argument("experiment", metavar="EXPERIMENT.toml")
-    sub.add_argument("-o", "--output", required=True, metavar="DIR", help="output folder")
-    sub.add_argument("--overwrite", action="store_true", help="replace existing outputs")
+    sub = _folder_command(commands, common, "rays", cmd_rays,
+                          "ray geometry and echoes of a scene (paper Figs. 6, 10, 11)",
+                          "Trace one sweep of a scene experiment with multipath and plot the ray "
+                          "geometry (2D or 3D) and the echoes after the range FFT, backscatter "
+                          "only and with reflections, near range / centre scene / far range "
+                          "marked.", "EXPERIMENT.toml")
     sub.add_argument("--rays", type=int, metavar="N", help="rays drawn from the path log")
     sub.add_argument("--sweep", type=int, default=0, help="sweep to trace (0)")
-    sub.set_defaults(func=cmd_rays)
 
-    sub = commands.add_parser("ambiguity", parents=[common], help="resolution and ambiguity "
-                              "maps of a trajectory", description="Resolution and ambiguity "
-                              "maps by the gradient method (docs/ambiguity.md); several "
-                              "trajectories in one file are compared side by side.")
-    sub.add_argument("experiment", metavar="AMBIGUITY.toml")
-    sub.add_argument("-o", "--output", required=True, metavar="DIR", help="output folder")
-    sub.add_argument("--overwrite", action="store_true", help="replace existing outputs")
+    sub = _folder_command(commands, common, "ambiguity", cmd_ambiguity,
+                          "resolution and ambiguity maps of a trajectory",
+                          "Resolution and ambiguity maps by the gradient method "
+                          "(docs/ambiguity.md); several trajectories in one file are compared "
+                          "side by side.", "AMBIGUITY.toml")
     sub.add_argument("--no-figures", action="store_true", help="write products only")
-    sub.set_defaults(func=cmd_ambiguity)
     return parser
 
 

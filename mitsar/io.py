@@ -250,9 +250,7 @@ def save(ds: xr.Dataset, path: str | os.PathLike, overwrite: bool = False) -> Pa
         raise ProductFileError(f"{path}: expected an xarray.Dataset to save, found "
                                f"{type(ds).__name__}")
     clean = _sanitized(ds)
-    with atomic_output(path, overwrite) as tmp:
-        _write_netcdf(clean, tmp)
-    return Path(path)
+    return atomic_writer(path, overwrite, lambda tmp: _write_netcdf(clean, tmp))
 
 
 def load(path: str | os.PathLike, product: str | tuple[str, ...] | None = None) -> xr.Dataset:
@@ -305,20 +303,16 @@ def write_json(data: Any, path: str | os.PathLike, overwrite: bool = False) -> P
     ----------
     data : object
         JSON-serialisable data (NumPy scalars and arrays allowed).
-    path : path-like
-        Output file.
-    overwrite : bool
-        Replace an existing file.
+    path, overwrite
+        Output file and whether to replace it, as for :func:`save`.
 
     Returns
     -------
-    Path
+    path : Path
         The written file.
     """
     text = json.dumps(to_jsonable(data), indent=2, allow_nan=False) + "\n"
-    with atomic_output(path, overwrite) as tmp:
-        tmp.write_text(text, encoding="utf-8")
-    return Path(path)
+    return atomic_writer(path, overwrite, lambda tmp: tmp.write_text(text, encoding="utf-8"))
 
 
 def to_jsonable(data: Any) -> Any:

@@ -230,7 +230,7 @@ def test_scene_experiment_traces_and_focuses(tmp_path, capsys):
 
 def test_ambiguity_command_compares_trajectories(tmp_path, capsys):
     """``mitsar ambiguity`` on the bundled two-trajectory example writes its products."""
-    from mitsar.experiment.config import example_path
+    from mitsar.experiment.examples import example_path
 
     assert main(["ambiguity", str(example_path("ambiguity_box_obstacle")), "-o",
                  str(tmp_path), "--no-figures", "-q"]) == 0
@@ -257,7 +257,7 @@ def test_montecarlo_command_resumes_and_plots(tmp_path, capsys):
 
 def test_rays_command_on_the_paper_2d_case(tmp_path, capsys):
     """``mitsar rays`` traces the paper's 2D case 2 and writes the ray and echo figures."""
-    from mitsar.experiment.config import example_path
+    from mitsar.experiment.examples import example_path
 
     assert main(["rays", str(example_path("case2_2d")), "-o", str(tmp_path), "-q"]) == 0
     assert "captured reflected rays" in capsys.readouterr().out

@@ -10,15 +10,14 @@ from pathlib import Path
 import pytest
 
 from mitsar.errors import MitsarError, ParameterError
-from mitsar.experiment.config import (
-    Experiment,
-    example_path,
-    examples_dir,
+from mitsar.experiment.examples import example_path, examples_dir
+from mitsar.experiment.loading import (
     experiment_from_dict,
     focus_options_from_config,
     load_experiment,
     load_grid,
 )
+from mitsar.experiment.options import Experiment
 
 BASE = {
     "trajectory": {"kind": "linear", "start": [14.9, 1.4, 4.5], "velocity": [0.5, 0.0, 0.0],

@@ -15,9 +15,9 @@ import math
 import numpy as np
 import pytest
 
-from mitsar.experiment import montecarlo
 from mitsar.errors import MitsarError
-from mitsar.experiment.config import experiment_from_dict, load_experiment
+from mitsar.experiment import montecarlo
+from mitsar.experiment.loading import experiment_from_dict, load_experiment
 
 SWEEP = 0.004
 
@@ -79,7 +79,7 @@ def _toml(data: dict) -> str:
 @pytest.fixture(scope="module")
 def absorbing():
     """Metrics of the target on a completely absorbing background."""
-    from mitsar.experiment.config import run_focus, run_simulation
+    from mitsar.experiment.runs import run_focus, run_simulation
 
     experiment = experiment_from_dict(_experiment(None))
     options = dataclasses.replace(experiment.focus, algorithm="wda")
@@ -132,7 +132,7 @@ def test_runs_resume_from_disk_and_refuse_a_changed_configuration(tmp_path, monk
     load_experiment(path)  # the file is a valid experiment
     out = tmp_path / "mc"
     calls = []
-    import mitsar.experiment.config as experiment_module
+    import mitsar.experiment.runs as experiment_module
 
     original = experiment_module.run_simulation
 

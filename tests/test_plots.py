@@ -10,8 +10,8 @@ import pytest
 import xarray as xr
 
 from mitsar import io
-from mitsar.plots import products as plots
 from mitsar.errors import MitsarError
+from mitsar.plots import products as plots
 
 PNG = b"\x89PNG\r\n\x1a\n"
 

@@ -19,7 +19,7 @@ import pytest
 import xarray as xr
 from scipy.special import sici
 
-from mitsar.quality.impulse import (
+from mitsar.quality import (
     band_fill_db,
     first_nulls,
     irw,

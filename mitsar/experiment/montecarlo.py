@@ -22,6 +22,7 @@ import hashlib
 import json
 import math
 import os
+import warnings
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -30,9 +31,16 @@ import numpy as np
 import xarray as xr
 from tqdm.auto import tqdm
 
-from mitsar.version import __version__
+from mitsar.checks import integer
 from mitsar.errors import MitsarError, ParameterError
-from mitsar.focus import ALGORITHMS
+from mitsar.experiment import runs
+from mitsar.experiment.loading import load_experiment
+from mitsar.experiment.options import Experiment
+from mitsar.focus.dispatch import ALGORITHMS
+from mitsar.focus.grid import equivalent_position
+from mitsar.io import save
+from mitsar.quality.impulse import measure_impulse_response
+from mitsar.version import __version__
 
 RECORD_FILE = "montecarlo.json"
 SUMMARY_FILE = "summary.nc"
@@ -53,9 +61,6 @@ def _write_atomic(path: Path, data: dict) -> None:
 
 
 def _measure(image: xr.Dataset, target: Sequence[float], islr_extent: str | float) -> dict:
-    from mitsar.focus.grid import equivalent_position
-    from mitsar.quality.impulse import measure_impulse_response
-
     metrics = measure_impulse_response(image, equivalent_position(image, target),
                                        islr_extent=islr_extent)
     out = {f"{d}_{m}": float(metrics[d][m]) for d in DIRECTIONS for m in METRICS}
@@ -74,9 +79,9 @@ def run(experiment: Any, realisations: int = 10,
     Parameters
     ----------
     experiment : Experiment or path-like
-        A :class:`mitsar.experiment.config.Experiment` or a TOML file; its ``[focus]`` options (window,
-        azimuth resolution, grid) are used for every algorithm, its ``[metrics]`` target and
-        ISLR extent for the measurements.
+        A :class:`mitsar.experiment.options.Experiment` or a TOML file; its ``[focus]``
+        options (window, azimuth resolution, grid) are used for every algorithm, its
+        ``[metrics]`` target and ISLR extent for the measurements.
     realisations : int
         Number of realisations N.
     algorithms : sequence of str
@@ -103,12 +108,9 @@ def run(experiment: Any, realisations: int = 10,
         metric); ``peak_offset_m`` (realisation, algorithm); coordinate ``seed``
         (realisation). See :func:`format_table`.
     """
-    from mitsar.experiment.config import Experiment, load_experiment, run_focus, run_simulation
-
     if not isinstance(experiment, Experiment):
         experiment = load_experiment(experiment)
-    if isinstance(realisations, bool) or not isinstance(realisations, int) or realisations < 1:
-        raise ParameterError("montecarlo", "realisations", "an integer >= 1", realisations)
+    realisations = integer("montecarlo", "realisations", realisations, 1)
     algorithms = list(algorithms)
     unknown = [a for a in algorithms if a not in ALGORITHMS]
     if not algorithms or unknown:
@@ -153,11 +155,11 @@ def run(experiment: Any, realisations: int = 10,
     for seed in todo:
         trial = dataclasses.replace(
             experiment, simulation=dataclasses.replace(experiment.simulation, seed=seed))
-        raw = run_simulation(trial)
+        raw = runs.run_simulation(trial)
         entry: dict[str, Any] = {"seed": seed, "metrics": {}, "failures": {}}
         for algorithm in algorithms:
             options = dataclasses.replace(experiment.focus, algorithm=algorithm)
-            image = run_focus(raw, options)
+            image = runs.run_focus(raw, options)
             try:
                 entry["metrics"][algorithm] = _measure(image, target, islr_extent)
             except ValueError as error:
@@ -177,8 +179,6 @@ def run(experiment: Any, realisations: int = 10,
                          mitsar_version=__version__,
                          experiment=json.dumps(experiment.config))
     if out_dir is not None:
-        from mitsar.io import save
-
         save(summary, Path(out_dir) / SUMMARY_FILE, overwrite=True)
         table = format_table(summary)
         tmp = Path(out_dir) / f".{TABLE_FILE}.{os.getpid()}.tmp"
@@ -219,8 +219,6 @@ class _quiet:
     """Silence NumPy's mean-of-empty warnings (algorithms with no record yet)."""
 
     def __enter__(self) -> None:
-        import warnings
-
         self._catch = warnings.catch_warnings()
         self._catch.__enter__()
         warnings.simplefilter("ignore", RuntimeWarning)
@@ -282,9 +280,6 @@ def realisation_cuts(experiment: Any, algorithm: str = "bpa", realisations: int 
         (list) of dicts with ``range`` and ``azimuth`` cuts in dB relative to the nominal peak;
         ``seeds``.
     """
-    from mitsar.experiment.config import Experiment, load_experiment, run_focus, run_simulation
-    from mitsar.focus.grid import equivalent_position
-
     if not isinstance(experiment, Experiment):
         experiment = load_experiment(experiment)
     target = experiment.metrics_target()
@@ -295,7 +290,7 @@ def realisation_cuts(experiment: Any, algorithm: str = "bpa", realisations: int 
     focus_options = dataclasses.replace(experiment.focus, algorithm=algorithm)
 
     def cuts(exp: Any) -> tuple[dict, xr.Dataset]:
-        image = run_focus(run_simulation(exp), focus_options)
+        image = runs.run_focus(runs.run_simulation(exp), focus_options)
         if image.attrs.get("grid_kind") != "slant":
             raise ParameterError("montecarlo", "focus.grid.kind", "a slant grid for the cuts",
                                  image.attrs.get("grid_kind"))
@@ -326,6 +321,7 @@ def realisation_cuts(experiment: Any, algorithm: str = "bpa", realisations: int 
 def plot_realisation_cuts(cuts: dict[str, Any], path: str | os.PathLike,
                           overwrite: bool = False) -> Path:
     """Figure like paper Figs. 8-9: cuts of several realisations over the nominal response."""
+    # matplotlib (and mitsar.plots, which imports it) stays lazy: only figures need it
     import matplotlib
 
     matplotlib.use("Agg")

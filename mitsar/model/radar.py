@@ -8,10 +8,10 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import numbers
 from dataclasses import dataclass
 from typing import Any
 
+from mitsar.checks import finite, is_real, positive
 from mitsar.errors import ParameterError
 
 SPEED_OF_LIGHT = 299_792_458.0
@@ -73,23 +73,18 @@ class Radar:
     elevation_beamwidth_deg: float | None = None
 
     def __post_init__(self) -> None:
-        positive = (
+        positive_fields = (
             "carrier_frequency", "bandwidth", "sampling_frequency", "prf", "max_range",
             "antenna_width", "antenna_length", "transmit_power",
         )
-        for name in positive:
-            value = getattr(self, name)
-            if not _is_real(value) or not math.isfinite(value) or value <= 0:
-                raise ParameterError("Radar", name, "a finite number > 0", value)
-            object.__setattr__(self, name, float(value))
+        for name in positive_fields:
+            object.__setattr__(self, name, positive("Radar", name, getattr(self, name)))
         for name in ("azimuth_beamwidth_deg", "elevation_beamwidth_deg"):
             value = getattr(self, name)
-            if value is not None and not (_is_real(value) and 0 < value < 180):
+            if value is not None and not (is_real(value) and 0 < value < 180):
                 raise ParameterError("Radar", name, "None or a beamwidth in (0, 180) deg", value)
-        if self.noise_figure_db is not None and not (_is_real(self.noise_figure_db)
-                                                     and math.isfinite(self.noise_figure_db)):
-            raise ParameterError("Radar", "noise_figure_db", "None or a finite dB value",
-                                 self.noise_figure_db)
+        if self.noise_figure_db is not None:
+            finite("Radar", "noise_figure_db", self.noise_figure_db, "None or a finite dB value")
         if self.bandwidth >= self.carrier_frequency:
             raise ParameterError("Radar", "bandwidth", f"< carrier_frequency "
                                  f"({self.carrier_frequency:g} Hz)", self.bandwidth)
@@ -217,7 +212,3 @@ class Radar:
                 kwargs[f.name] = float(attrs[key])
         return cls(**kwargs)
 
-
-def _is_real(value: object) -> bool:
-    """A real number (Python or NumPy), not a bool."""
-    return isinstance(value, numbers.Real) and not isinstance(value, bool)

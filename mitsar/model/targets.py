@@ -10,21 +10,19 @@ is coherent speckle that focuses.
 from __future__ import annotations
 
 import math
-import numbers
 from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from mitsar.checks import finite, integer, positive, vector
 from mitsar.errors import ParameterError
 
 
 def _vector3(where: str, name: str, value: ArrayLike) -> tuple[float, float, float]:
-    array = np.asarray(value, dtype=float)
-    if array.shape != (3,) or not np.all(np.isfinite(array)):
-        raise ParameterError(where, name, "3 finite numbers", value)
-    return tuple(float(v) for v in array)
+    """A 3-vector parameter as a tuple of floats (:func:`mitsar.checks.vector`)."""
+    return tuple(float(v) for v in vector(where, name, value))
 
 
 @dataclass(frozen=True)
@@ -48,10 +46,8 @@ class PointTarget:
     def __post_init__(self) -> None:
         object.__setattr__(self, "position", _vector3("PointTarget", "position", self.position))
         object.__setattr__(self, "velocity", _vector3("PointTarget", "velocity", self.velocity))
-        if not (isinstance(self.rcs, numbers.Real) and not isinstance(self.rcs, bool)
-                and math.isfinite(self.rcs) and self.rcs > 0):
-            raise ParameterError("PointTarget", "rcs", "a radar cross section > 0 m^2", self.rcs)
-        object.__setattr__(self, "rcs", float(self.rcs))
+        object.__setattr__(self, "rcs", positive("PointTarget", "rcs", self.rcs,
+                                                 "a radar cross section > 0 m^2"))
 
 
 @dataclass(frozen=True)
@@ -87,20 +83,15 @@ class Background:
         object.__setattr__(self, "center", _vector3("Background", "center", self.center))
         object.__setattr__(self, "axis_u", _vector3("Background", "axis_u", self.axis_u))
         object.__setattr__(self, "axis_v", _vector3("Background", "axis_v", self.axis_v))
-        size = np.asarray(self.size, dtype=float)
-        if size.shape != (2,) or not np.all(np.isfinite(size)) or not np.all(size > 0):
+        size = vector("Background", "size", self.size, 2, "2 extents > 0 m")
+        if not np.all(size > 0):
             raise ParameterError("Background", "size", "2 extents > 0 m", self.size)
         object.__setattr__(self, "size", (float(size[0]), float(size[1])))
-        if not (isinstance(self.cell_rcs_db, numbers.Real) and math.isfinite(self.cell_rcs_db)):
-            raise ParameterError("Background", "cell_rcs_db", "a finite level [dBsm]",
-                                 self.cell_rcs_db)
+        finite("Background", "cell_rcs_db", self.cell_rcs_db, "a finite level [dBsm]")
         if self.mode not in ("pulse", "frozen"):
             raise ParameterError("Background", "mode", "'pulse' or 'frozen'", self.mode)
-        if not (isinstance(self.scatterers_per_cell, numbers.Integral)
-                and not isinstance(self.scatterers_per_cell, bool)
-                and self.scatterers_per_cell >= 1):
-            raise ParameterError("Background", "scatterers_per_cell", "an integer >= 1 (paper: 9)",
-                                 self.scatterers_per_cell)
+        integer("Background", "scatterers_per_cell", self.scatterers_per_cell, 1,
+                "an integer >= 1 (paper: 9)")
         u, v = np.asarray(self.axis_u), np.asarray(self.axis_v)
         if abs(np.linalg.norm(u) - 1) > 1e-6 or abs(np.linalg.norm(v) - 1) > 1e-6 \
                 or abs(u @ v) > 1e-6:

@@ -15,6 +15,7 @@ figures can be composed.
 
 from __future__ import annotations
 
+import json
 import os
 import warnings
 from collections.abc import Mapping, Sequence
@@ -33,7 +34,11 @@ from matplotlib.figure import Figure  # noqa: E402
 from numpy.typing import ArrayLike, NDArray  # noqa: E402
 
 from mitsar.errors import MitsarError  # noqa: E402
-from mitsar.io import atomic_output, load  # noqa: E402
+from mitsar.focus.compression import range_compress  # noqa: E402
+from mitsar.focus.grid import equivalent_position  # noqa: E402
+from mitsar.io import atomic_output, check_writable, load  # noqa: E402
+from mitsar.model.geometry.attitude import Look, boresight  # noqa: E402
+from mitsar.raw.product import radar_of  # noqa: E402
 
 __all__ = [
     "plot_background_histograms",
@@ -97,8 +102,6 @@ def plot_range_compressed(product: xr.Dataset, ax: Axes | None = None,
             raise MitsarError("plot_range_compressed: expected a raw product (variable 'raw') "
                               f"or a range-compressed one ('profile'), found variables "
                               f"{sorted(product.data_vars)}")
-        from mitsar.focus import range_compress
-
         product = range_compress(product, window=window)
     profile = product["profile"]
     range_dim = "range" if "range" in profile.dims else profile.dims[-1]
@@ -150,8 +153,6 @@ def _mark_location(image: xr.Dataset, position: ArrayLike) -> tuple[float, float
         return float(position[0]), float(position[1])
     if position.size != 3 or "position" not in image:
         return None
-    from mitsar.focus.grid import equivalent_position
-
     world = equivalent_position(image, position)
     pixels = image["position"].transpose(rows, cols, "xyz").values
     distance = np.linalg.norm(pixels - world, axis=-1)
@@ -227,9 +228,6 @@ def beam_range_marks(image: xr.Dataset, floor_z: float = 0.0) -> dict[str, float
     beamwidth lambda/d, same squint) meet the horizontal plane ``z = floor_z``. Far range is
     omitted when the upper edge does not reach the floor.
     """
-    from mitsar.model.geometry.attitude import Look, boresight
-    from mitsar.raw.product import radar_of
-
     if image.attrs.get("grid_kind") != "slant" or "look_off_nadir_deg" not in image.attrs:
         return {}
     origin = np.asarray(_json_list(image.attrs["grid_origin"]), dtype=float)
@@ -250,8 +248,6 @@ def beam_range_marks(image: xr.Dataset, floor_z: float = 0.0) -> dict[str, float
 
 
 def _json_list(value: Any) -> list[float]:
-    import json
-
     return json.loads(value) if isinstance(value, str) else list(np.ravel(value))
 
 
@@ -455,8 +451,6 @@ def plot_file(path: str | os.PathLike, out: str | os.PathLike, overwrite: bool =
     Path
         The figure file.
     """
-    from mitsar.io import check_writable
-
     check_writable(out, overwrite)
     product = load(path)
     kind = product.attrs["product"]
@@ -475,8 +469,6 @@ def plot_file(path: str | os.PathLike, out: str | os.PathLike, overwrite: bool =
 
 def target_marks(image: xr.Dataset) -> dict[str, list[float]]:
     """Marks for the point targets of the experiment recorded in an image product."""
-    import json
-
     config = image.attrs.get("experiment") or image.attrs.get("raw_config")
     if not config:
         return {}

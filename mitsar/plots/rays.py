@@ -28,8 +28,11 @@ import xarray as xr
 from numpy.typing import NDArray
 
 from mitsar.errors import ParameterError
+from mitsar.experiment.loading import load_experiment
+from mitsar.focus.compression import range_compress
 from mitsar.io import write_json
 from mitsar.plots.products import save_figure
+from mitsar.raw.traced import histogram_to_raw_product, trace, trace_paths
 
 __all__ = ["beam_marks", "echo_profiles", "figure_echoes", "figure_ray_geometry_2d",
            "plane_axes", "plot_echoes", "plot_rays_2d", "plot_rays_3d", "run_figures"]
@@ -247,9 +250,6 @@ def echo_profiles(histogram: xr.Dataset, sweep: int = 0, upsample: int = 4
         ``range`` [m], ``backscatter`` and ``total`` (complex profiles; a tone of amplitude a
         peaks at a), ``difference`` = ``|total| - |backscatter|``.
     """
-    from mitsar.focus.compression import range_compress
-    from mitsar.raw.traced import histogram_to_raw_product
-
     one = histogram.isel(sweep=[sweep])
     back = range_compress(histogram_to_raw_product(one, orders=0), upsample=upsample)
     total = range_compress(histogram_to_raw_product(one), upsample=upsample)
@@ -327,9 +327,6 @@ def run_figures(experiment_path: str | Path, out: str | Path, path_rays: int | N
     import matplotlib
 
     matplotlib.use("Agg")
-
-    from mitsar.experiment.config import load_experiment
-    from mitsar.raw.traced import trace, trace_paths
 
     exp = load_experiment(experiment_path)
     if exp.scene is None:

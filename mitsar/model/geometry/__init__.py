@@ -1,1 +1,1 @@
-"""Platform and antenna geometry: trajectories, attitude and boresight (paper eq. 3), beam pattern."""
+"""Platform and antenna geometry: trajectories, attitude, boresight (paper eq. 3), beam pattern."""

@@ -14,14 +14,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.interpolate import CubicHermiteSpline, CubicSpline
 
+from mitsar.checks import positive, vector
 from mitsar.errors import ParameterError
 
-
-def _vector3(name: str, value: ArrayLike) -> NDArray[np.float64]:
-    array = np.asarray(value, dtype=float)
-    if array.shape != (3,) or not np.all(np.isfinite(array)):
-        raise ParameterError("Trajectory", name, "3 finite numbers [m or m/s]", value)
-    return array
+_VECTOR = "3 finite numbers [m or m/s]"
+"""Expectation of the 3-vector arguments (start, velocity) in error messages."""
 
 
 @dataclass(frozen=True)
@@ -68,10 +65,9 @@ class Trajectory:
         >>> Trajectory.linear([0, 0, 1], [0.5, 0, 0], 2.0).position(1.0)
         array([0.5, 0. , 1. ])
         """
-        start = _vector3("start", start)
-        velocity = _vector3("velocity", velocity)
-        if not (np.isfinite(duration) and duration > 0):
-            raise ParameterError("Trajectory", "duration", "a finite time > 0 s", duration)
+        start, velocity = (vector("Trajectory", name, value, expected=_VECTOR)
+                           for name, value in (("start", start), ("velocity", velocity)))
+        duration = positive("Trajectory", "duration", duration, "a finite time > 0 s")
         if not np.linalg.norm(velocity) > 0:
             raise ParameterError("Trajectory", "velocity", "a non-zero velocity [m/s]",
                                  velocity.tolist())
@@ -86,8 +82,7 @@ class Trajectory:
         if points.ndim != 2 or points.shape[1] != 3 or len(points) < 2:
             raise ParameterError("Trajectory", "points", "at least 2 waypoints of 3 numbers",
                                  points.tolist())
-        if not (np.isfinite(speed) and speed > 0):
-            raise ParameterError("Trajectory", "speed", "a finite speed > 0 m/s", speed)
+        speed = positive("Trajectory", "speed", speed, "a finite speed > 0 m/s")
         if not np.all(np.isfinite(points)):
             raise ParameterError("Trajectory", "points", "finite coordinates [m]",
                                  points.tolist())

@@ -1,0 +1,186 @@
+"""Run configuration: what an experiment file describes, as plain validated objects.
+
+:class:`Experiment` bundles the radar, trajectory, look, targets and the options of the three
+workflow steps (:class:`SimulationOptions`, :class:`FocusOptions`, :class:`MetricsOptions`).
+Reading them from TOML is :mod:`mitsar.experiment.loading`; running them is
+:mod:`mitsar.experiment.runs`.
+"""
+
+from __future__ import annotations
+
+import copy
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from mitsar.focus import grid as grid_module
+from mitsar.focus.dispatch import ALGORITHMS as _FOCUS_ALGORITHMS
+from mitsar.focus.windows import WINDOWS as _WINDOWS
+from mitsar.model.geometry.attitude import Look
+from mitsar.model.geometry.trajectory import Trajectory
+from mitsar.model.radar import Radar
+from mitsar.model.targets import Background, PointTarget
+from mitsar.quality.cuts import ISLR_EXTENTS as _QUALITY_EXTENTS
+
+__all__ = [
+    "ALGORITHMS",
+    "GRID_KINDS",
+    "ISLR_EXTENTS",
+    "WINDOWS",
+    "Experiment",
+    "FocusOptions",
+    "MetricsOptions",
+    "SimulationOptions",
+]
+
+ALGORITHMS = tuple(_FOCUS_ALGORITHMS)
+"""Focusing algorithms accepted by ``[focus] algorithm``."""
+
+ISLR_EXTENTS = tuple(_QUALITY_EXTENTS)
+"""Named ISLR side-lobe extents accepted by ``[metrics] islr_extent`` (or a number of cells)."""
+
+WINDOWS = tuple(_WINDOWS)
+"""Spectral windows accepted by ``[focus] window``."""
+
+GRID_KINDS = ("slant", "plane", "points")
+"""Output grid kinds accepted by ``[focus.grid] kind``."""
+
+
+@dataclass(frozen=True)
+class SimulationOptions:
+    """Options of the analytic simulator (``[simulation]``).
+
+    Attributes
+    ----------
+    seed : int
+        Seed of the background and noise draws.
+    rvp : bool
+        Keep the residual video phase in the raw data.
+    normalized : bool
+        Unit amplitude per unit RCS (paper eq. 1) instead of the radar equation.
+    noise : bool
+        Add receiver noise (needs ``radar.noise_figure_db``).
+    scatterer_density : float or None
+        Surface scatterers per m^2 for a scene (default: the integrator's, >= 9 per cell).
+    orders : list of int or None
+        Path orders kept from a scene (0: direct backscatter); default all.
+    max_depth, rays, ray_cover, ghosts, plane_normal, slab_width
+        Multipath options of a scene (:func:`mitsar.raw.traced.trace`); ``None``: the scene
+        integrator's (default: direct backscatter only, 3D).
+    """
+
+    seed: int = 0
+    rvp: bool = True
+    normalized: bool = False
+    noise: bool = False
+    scatterer_density: float | None = None
+    orders: tuple[int, ...] | None = None
+    max_depth: int | None = None
+    rays: int | None = None
+    ray_cover: float | None = None
+    ghosts: bool | None = None
+    plane_normal: tuple[float, float, float] | None = None
+    slab_width: float | None = None
+
+    def multipath(self) -> dict[str, Any]:
+        """The multipath keyword arguments of :func:`mitsar.raw.traced.simulate_scene`."""
+        return {"max_depth": self.max_depth, "rays": self.rays, "ray_cover": self.ray_cover,
+                "ghosts": self.ghosts, "plane_normal": self.plane_normal,
+                "slab_width": self.slab_width}
+
+
+@dataclass(frozen=True)
+class FocusOptions:
+    """Focusing options (``[focus]``).
+
+    Attributes
+    ----------
+    algorithm : {"bpa", "rda", "wda", "fsa"}
+        Focusing algorithm.
+    window : str
+        Spectral window of range and azimuth compression (``"rect"`` = none).
+    azimuth_resolution : float or None
+        Processed azimuth resolution [m]; ``None`` uses the full beam.
+    grid : dict or None
+        The ``[focus.grid]`` table (see :func:`mitsar.focus.grid.from_dict`); ``None`` lets the
+        algorithm choose its default slant-range grid.
+    """
+
+    algorithm: str = "bpa"
+    window: str = "rect"
+    azimuth_resolution: float | None = None
+    grid: dict[str, Any] | None = None
+
+    def make_grid(self) -> Any:
+        """The output grid object, or ``None`` for the algorithm's default grid."""
+        if self.grid is None:
+            return None
+        return grid_module.from_dict(copy.deepcopy(self.grid))
+
+
+@dataclass(frozen=True)
+class MetricsOptions:
+    """Image-quality options (``[metrics]``).
+
+    Attributes
+    ----------
+    target : tuple of float or None
+        World position [m] of the target to measure; ``None`` means the first point target.
+    islr_extent : str or float
+        Side-lobe extent of the ISLR: ``"paper"`` (+-5 cells), ``"isce3"`` (+-11 cells),
+        ``"chip"``, ``"inf"`` or a number of resolution cells (see :mod:`mitsar.quality.cuts`).
+    """
+
+    target: tuple[float, float, float] | None = None
+    islr_extent: str | float = "paper"
+
+
+@dataclass
+class Experiment:
+    """A validated experiment (see :func:`load_experiment`).
+
+    Attributes
+    ----------
+    radar : Radar
+    trajectory : Trajectory
+    look : Look
+    targets : list of PointTarget
+    background : Background or None
+    simulation : SimulationOptions
+    focus : FocusOptions
+    metrics : MetricsOptions
+    scene : str or None
+        A scene file (absolute path) or a canned scene name, for scene-based simulation.
+    name, description : str
+        Free text from the file.
+    source : Path or None
+        The TOML file the experiment was read from.
+    config : dict
+        The effective configuration (defaults filled in, paths resolved); JSON-serialisable,
+        and :func:`experiment_from_dict` of it gives the same experiment.
+    """
+
+    radar: Radar
+    trajectory: Trajectory
+    look: Look
+    targets: list[PointTarget]
+    background: Background | None
+    simulation: SimulationOptions
+    focus: FocusOptions
+    metrics: MetricsOptions
+    scene: str | None = None
+    name: str = ""
+    description: str = ""
+    source: Path | None = None
+    config: dict[str, Any] = field(default_factory=dict)
+
+    def metrics_target(self) -> tuple[float, float, float] | None:
+        """The target to measure: ``[metrics] target``, else the first point target."""
+        if self.metrics.target is not None:
+            return self.metrics.target
+        if self.targets:
+            return tuple(float(v) for v in np.asarray(self.targets[0].position))
+        return None
+

@@ -1,0 +1,292 @@
+"""Parsers of the tables of an experiment file, one per table.
+
+Each ``parse_*`` function takes a :class:`~mitsar.experiment.table.Table`, reads and checks its
+keys and returns the object the table describes (a :class:`~mitsar.model.radar.Radar`, a
+:class:`~mitsar.model.geometry.trajectory.Trajectory`, options ...). Physics checks done by the
+core classes are re-raised with the key path prefixed (:func:`~mitsar.experiment.table.prefixed`).
+Keys, types, units and defaults are documented in ``docs/experiments.md``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from mitsar.experiment.options import (
+    ALGORITHMS,
+    GRID_KINDS,
+    ISLR_EXTENTS,
+    WINDOWS,
+    FocusOptions,
+    MetricsOptions,
+    SimulationOptions,
+)
+from mitsar.experiment.table import Table, prefixed
+from mitsar.model.geometry.attitude import Look
+from mitsar.model.geometry.trajectory import Trajectory
+from mitsar.model.radar import Radar
+from mitsar.model.targets import Background, PointTarget
+
+__all__ = [
+    "check_grid",
+    "parse_axis",
+    "parse_background",
+    "parse_focus",
+    "parse_grid",
+    "parse_look",
+    "parse_metrics",
+    "parse_navigation",
+    "parse_radar",
+    "parse_scene",
+    "parse_simulation",
+    "parse_target",
+    "parse_trajectory",
+    "read_navigation_csv",
+]
+
+
+def parse_radar(t: Table) -> Radar:
+    """``[radar]``: every :class:`~mitsar.model.radar.Radar` field, defaults from Table 1."""
+    kwargs: dict[str, Any] = {}
+    for f in dataclasses.fields(Radar):
+        if f.name.endswith("_db"):
+            value = t.number(f.name, f.default, unit="dB")
+        elif f.name.endswith("_deg"):
+            value = t.number(f.name, f.default, unit="deg", gt=0, lt=180)
+        else:
+            value = t.number(f.name, f.default, unit=_RADAR_UNITS.get(f.name, ""), gt=0)
+        if value is not None:
+            kwargs[f.name] = value
+    t.finish()
+    with prefixed(t):
+        return Radar(**kwargs)
+
+
+_RADAR_UNITS = {"carrier_frequency": "Hz", "bandwidth": "Hz", "sampling_frequency": "Hz",
+                "prf": "Hz", "max_range": "m", "antenna_width": "m", "antenna_length": "m",
+                "transmit_power": "W"}
+
+
+def parse_trajectory(t: Table) -> Trajectory:
+    """``[trajectory]``: kind = "linear" | "waypoints" | "navigation"."""
+    kind = t.string("kind", "linear", choices=("linear", "waypoints", "navigation"))
+    with prefixed(t):
+        if kind == "linear":
+            start = t.vector("start", 3, unit="m")
+            velocity = t.vector("velocity", 3, unit="m/s")
+            duration = t.number("duration", unit="s", gt=0)
+            t.finish()
+            return Trajectory.linear(start, velocity, duration)
+        if kind == "waypoints":
+            points = t.vectors("points", 3, min_count=2, unit="m")
+            speed = t.number("speed", unit="m/s", gt=0)
+            t.finish()
+            return Trajectory.waypoints(points, speed)
+        return parse_navigation(t)
+
+
+def parse_navigation(t: Table) -> Trajectory:
+    """Navigation data inline (times, positions, ...) or from a CSV ``file``."""
+    if t.has("file"):
+        path = t.path_value("file")
+        t.finish()
+        times, positions, velocities, attitude = read_navigation_csv(t, path)
+        t.out["kind"] = "navigation"
+    else:
+        times = t.numbers("times", min_count=2, unit="s")
+        positions = t.vectors("positions", 3, min_count=2, unit="m")
+        velocities = t.vectors("velocities", 3, default=None, unit="m/s")
+        attitude = t.vectors("attitude_deg", 3, default=None, unit="deg")
+        t.finish()
+        for name, rows in (("positions", positions), ("velocities", velocities),
+                           ("attitude_deg", attitude)):
+            if rows is not None and len(rows) != len(times):
+                raise t.error(name, f"{len(times)} rows (one per entry of 'times')",
+                              f"{len(rows)} rows")
+    return Trajectory.navigation(times, positions, velocities, attitude)
+
+
+_NAV_COLUMNS = {"position": ("x", "y", "z"), "velocity": ("vx", "vy", "vz"),
+                "attitude": ("heading_deg", "pitch_deg", "roll_deg")}
+
+
+def read_navigation_csv(t: Table, path: Path) -> tuple[Any, Any, Any, Any]:
+    """Read ``time,x,y,z[,vx,vy,vz][,heading_deg,pitch_deg,roll_deg]`` columns from a CSV."""
+    if not path.is_file():
+        raise t.error("file", "an existing CSV file of navigation data", str(path))
+    try:
+        table = np.genfromtxt(path, delimiter=",", names=True, dtype=float, ndmin=1)
+    except ValueError as error:
+        raise t.error("file", "a CSV file with a header row and numeric columns",
+                      f"{path} ({error})") from error
+    names = table.dtype.names or ()
+    required = ("time",) + _NAV_COLUMNS["position"]
+    if any(c not in names for c in required):
+        raise t.error("file", "CSV columns time,x,y,z (optional vx,vy,vz and "
+                      "heading_deg,pitch_deg,roll_deg)", f"{path} with columns {list(names)}")
+
+    def columns(group: str) -> Any:
+        cols = _NAV_COLUMNS[group]
+        if all(c in names for c in cols):
+            return np.stack([table[c] for c in cols], axis=-1)
+        return None
+
+    return table["time"], columns("position"), columns("velocity"), columns("attitude")
+
+
+def parse_look(t: Table) -> Look:
+    """``[look]``: off-nadir and squint angles [deg]."""
+    off_nadir = t.number("off_nadir_deg", unit="deg", ge=0, lt=180)
+    squint = t.number("squint_deg", 0.0, unit="deg", gt=-90, lt=90)
+    t.finish()
+    with prefixed(t):
+        return Look(off_nadir, squint)
+
+
+def parse_target(t: Table) -> PointTarget:
+    """One ``[[targets]]`` entry."""
+    position = t.vector("position", 3, unit="m")
+    rcs = t.number("rcs", 1.0, unit="m^2", gt=0)
+    velocity = t.vector("velocity", 3, (0.0, 0.0, 0.0), unit="m/s")
+    t.finish()
+    with prefixed(t):
+        return PointTarget(position, rcs=rcs, velocity=velocity)
+
+
+def parse_background(t: Table) -> Background:
+    """``[background]``: a fluctuating patch (paper eq. 4)."""
+    center = t.vector("center", 3, unit="m")
+    size = t.vector("size", 2, unit="m")
+    if size is not None and min(size) <= 0:
+        raise t.error("size", "2 sizes > 0 [m]", list(size))
+    cell_rcs_db = t.number("cell_rcs_db", -20.0, unit="dB")
+    per_cell = t.integer("scatterers_per_cell", 9, ge=1)
+    mode = t.string("mode", "pulse", choices=("pulse", "frozen"))
+    axis_u = t.vector("axis_u", 3, (1.0, 0.0, 0.0))
+    axis_v = t.vector("axis_v", 3, (0.0, 1.0, 0.0))
+    for name, axis in (("axis_u", axis_u), ("axis_v", axis_v)):
+        if not np.linalg.norm(axis) > 0:
+            raise t.error(name, "a non-zero direction", list(axis))
+    t.finish()
+    with prefixed(t):
+        return Background(center, size, cell_rcs_db=cell_rcs_db, scatterers_per_cell=per_cell,
+                          mode=mode, axis_u=axis_u, axis_v=axis_v)
+
+
+def parse_simulation(t: Table | None) -> SimulationOptions:
+    """``[simulation]``: seed, rvp, normalized, noise."""
+    if t is None:
+        return SimulationOptions()
+    orders = t.numbers("orders", 1, None)
+    if orders is not None and any(o != int(o) or o < 0 for o in orders):
+        raise t.error("orders", "integers >= 0 (0: direct backscatter)", orders)
+    options = SimulationOptions(seed=t.integer("seed", 0, ge=0), rvp=t.boolean("rvp", True),
+                                normalized=t.boolean("normalized", False),
+                                noise=t.boolean("noise", False),
+                                scatterer_density=t.number("scatterer_density", None,
+                                                           unit="1/m^2", gt=0),
+                                orders=None if orders is None else tuple(int(o) for o in orders),
+                                max_depth=t.integer("max_depth", None, ge=1),
+                                rays=t.integer("rays", None, ge=1),
+                                ray_cover=t.number("ray_cover", None, unit="beamwidths", gt=0),
+                                ghosts=t.boolean("ghosts", None),
+                                plane_normal=t.vector("plane_normal", 3, None),
+                                slab_width=t.number("slab_width", None, unit="m", gt=0))
+    t.finish()
+    return options
+
+
+def parse_focus(t: Table | None) -> FocusOptions:
+    """``[focus]``: algorithm, window, azimuth_resolution and ``[focus.grid]``."""
+    if t is None:
+        return FocusOptions()
+    algorithm = t.string("algorithm", "bpa", choices=ALGORITHMS)
+    window = t.string("window", "rect", choices=WINDOWS)
+    resolution = t.number("azimuth_resolution", None, unit="m", gt=0)
+    grid_table = t.table("grid")
+    grid = parse_grid(grid_table) if grid_table is not None else None
+    if grid is not None:
+        t.out["grid"] = grid
+    t.finish()
+    options = FocusOptions(algorithm, window, resolution, grid)
+    check_grid(t, options)
+    return options
+
+
+def check_grid(t: Table, options: FocusOptions) -> None:
+    """Build the grid once, so grid errors surface when the file is loaded."""
+    if options.grid is None:
+        return
+    with prefixed(t, t.key("grid")):
+        options.make_grid()
+
+
+
+
+def parse_grid(t: Table) -> dict[str, Any]:
+    """``[focus.grid]``: kind = "slant" | "plane" | "points" and its axes."""
+    kind = t.string("kind", "slant", choices=GRID_KINDS)
+    if kind == "slant":
+        for name in ("along_track", "slant_range"):
+            parse_axis(t, name)
+    elif kind == "plane":
+        for name in ("origin", "axis_u", "axis_v"):
+            t.vector(name, 3, unit="m" if name == "origin" else "")
+        u, v = np.asarray(t.out["axis_u"]), np.asarray(t.out["axis_v"])
+        for name, axis in (("axis_u", u), ("axis_v", v)):
+            if not np.linalg.norm(axis) > 0:
+                raise t.error(name, "a non-zero direction", t.out[name])
+        if abs(u @ v) > 1e-6 * np.linalg.norm(u) * np.linalg.norm(v):
+            raise t.error("axis_v", f"a direction orthogonal to axis_u {t.out['axis_u']}",
+                          t.out["axis_v"])
+        for name in ("u", "v"):
+            parse_axis(t, name)
+    else:
+        t.vectors("points", 3, min_count=1, unit="m")
+    return t.finish()
+
+
+def parse_axis(t: Table, name: str) -> None:
+    """A grid axis ``[start, stop, step]`` [m] with ``stop > start`` and ``step > 0``."""
+    vec = t.vector(name, 3, unit="m")
+    start, stop, step = vec
+    if not (stop > start and step > 0):
+        raise t.error(name, "[start, stop, step] with stop > start and step > 0 [m]", list(vec))
+
+
+def parse_metrics(t: Table | None) -> MetricsOptions:
+    """``[metrics]``: target position and ISLR side-lobe extent."""
+    if t is None:
+        return MetricsOptions()
+    target = t.vector("target", 3, None, unit="m")
+    t.seen.add("islr_extent")
+    extent: str | float = t.data.get("islr_extent", "paper")
+    expected = f"one of {', '.join(repr(e) for e in ISLR_EXTENTS)} or a number of cells > 0"
+    if isinstance(extent, bool) or not (
+            (isinstance(extent, str) and extent in ISLR_EXTENTS)
+            or (isinstance(extent, int | float) and math.isfinite(extent) and extent > 0)):
+        raise t.error("islr_extent", expected, extent)
+    t.out["islr_extent"] = extent
+    t.finish()
+    return MetricsOptions(target, extent if isinstance(extent, str) else float(extent))
+
+
+def parse_scene(t: Table) -> str | None:
+    """``scene``: a file path (resolved against the experiment's folder) or a canned name."""
+    value = t.string("scene", None)
+    if value is None:
+        return None
+    candidate = Path(value).expanduser()
+    if not candidate.is_absolute():
+        candidate = t.base / candidate
+    looks_like_path = ("/" in value or os.sep in value or candidate.exists()
+                       or value.startswith("~"))
+    if looks_like_path:
+        t.out["scene"] = str(candidate.resolve())
+    return t.out["scene"]
+

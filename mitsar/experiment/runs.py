@@ -1,0 +1,130 @@
+"""The workflow of an experiment: simulate its raw product, focus it, measure the image.
+
+Each step takes the validated configuration of :mod:`mitsar.experiment.options` and records the
+experiment in the products' attributes, so that a later step (or a later session reading the
+saved product) finds the target and options it was run with.
+"""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+import xarray as xr
+
+from mitsar.errors import MitsarError
+from mitsar.experiment.loading import metrics_options_from_config
+from mitsar.experiment.options import Experiment, FocusOptions, MetricsOptions
+from mitsar.focus.dispatch import focus
+from mitsar.quality.impulse import measure_impulse_response
+from mitsar.raw.analytic import simulate_point_targets
+from mitsar.raw.traced import simulate_scene
+
+__all__ = ["run_focus", "run_metrics", "run_simulation"]
+
+
+def run_simulation(experiment: Experiment, progress: bool = False) -> xr.Dataset:
+    """Simulate the raw product of an experiment.
+
+    Parameters
+    ----------
+    experiment : Experiment
+        From :func:`load_experiment`.
+    progress : bool
+        Show a progress bar.
+
+    Returns
+    -------
+    xarray.Dataset
+        The raw product; its attributes also record the experiment (``experiment``, a JSON
+        string of :attr:`Experiment.config`) and its source file (``experiment_source``).
+    """
+    options = experiment.simulation
+    if experiment.scene is not None:
+        if options.noise:
+            raise MitsarError(f"{experiment.source or 'experiment'}: key 'simulation.noise': "
+                              "thermal noise is not available with a scene yet")
+        raw = simulate_scene(
+            experiment.radar, experiment.trajectory, experiment.look, experiment.scene,
+            targets=experiment.targets, background=experiment.background, seed=options.seed,
+            density=options.scatterer_density, orders=options.orders, rvp=options.rvp,
+            normalized=options.normalized, progress=progress, **options.multipath())
+    else:
+        raw = simulate_point_targets(
+            experiment.radar, experiment.trajectory, experiment.look, experiment.targets,
+            background=experiment.background, seed=options.seed, rvp=options.rvp,
+            normalized=options.normalized, noise=options.noise, progress=progress)
+    raw.attrs["experiment"] = json.dumps(experiment.config)
+    if experiment.source is not None:
+        raw.attrs["experiment_source"] = str(experiment.source)
+    if experiment.name:
+        raw.attrs["experiment_name"] = experiment.name
+    return raw
+
+
+def run_focus(raw: xr.Dataset, options: FocusOptions, progress: bool = False) -> xr.Dataset:
+    """Focus a raw product with the given options.
+
+    The image keeps the raw product's experiment record (``experiment`` and
+    ``experiment_source`` attributes), so that metrics can find their target.
+
+    Parameters
+    ----------
+    raw : xarray.Dataset
+        A raw product.
+    options : FocusOptions
+        Algorithm, window, azimuth resolution and grid.
+    progress : bool
+        Show a progress bar when the algorithm supports one.
+
+    Returns
+    -------
+    xarray.Dataset
+        The image product.
+    """
+    image = focus(raw, algorithm=options.algorithm, grid=options.make_grid(),
+                  window=options.window, azimuth_resolution=options.azimuth_resolution,
+                  progress=progress)
+    for key in ("experiment", "experiment_source", "experiment_name"):
+        if key in raw.attrs and key not in image.attrs:
+            image.attrs[key] = raw.attrs[key]
+    return image
+
+
+def run_metrics(image: xr.Dataset, target: Any | None = None,
+                islr_extent: str | float | None = None) -> dict[str, Any]:
+    """Measure the impulse response of a target in an image product.
+
+    Parameters
+    ----------
+    image : xarray.Dataset
+        An image product.
+    target : array_like of 3 floats, optional
+        World position [m]; by default the ``[metrics] target`` of the image's experiment, or
+        its first point target.
+    islr_extent : str or float, optional
+        ISLR side-lobe extent; by default from the experiment, else ``"paper"``.
+
+    Returns
+    -------
+    dict
+        The result of :func:`mitsar.quality.impulse.measure_impulse_response`, plus ``target`` and
+        ``islr_extent``.
+    """
+    config = image.attrs.get("experiment")
+    options = metrics_options_from_config(config) if config else MetricsOptions()
+    if target is None:
+        target = options.target
+    if target is None and config:
+        targets = json.loads(config).get("targets") or []
+        target = targets[0]["position"] if targets else None
+    if target is None:
+        raise MitsarError("metrics: no target position: give one (--target X Y Z) or set "
+                          "[metrics] target in the experiment")
+    target = [float(v) for v in target]
+    extent = islr_extent if islr_extent is not None else options.islr_extent
+    result = dict(measure_impulse_response(image, target=target, islr_extent=extent))
+    result.setdefault("target", target)
+    result.setdefault("islr_extent", extent)
+    return result
+
