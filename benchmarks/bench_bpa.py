@@ -13,7 +13,7 @@ import time
 import numpy as np
 
 import mitsar
-from mitsar.focus.bpa import backproject_drjit, backproject_numpy
+from mitsar.focus.backprojection import backproject_drjit, backproject_numpy
 from mitsar.focus.compression import range_spectrum
 from mitsar.focus.windows import window_coefficients
 

@@ -21,9 +21,9 @@ import numpy as np
 from scipy import fft as sp_fft
 
 import mitsar
-from mitsar.focus.bpa import aperture_half_width
-from mitsar.focus.spectral import prepare_spectrum
+from mitsar.focus.aperture import aperture_half_width
 from mitsar.focus.grid import SlantGrid
+from mitsar.focus.spectral import prepare_spectrum
 from mitsar.raw.product import radar_of
 
 

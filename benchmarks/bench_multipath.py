@@ -76,7 +76,7 @@ def main() -> None:
     parser.add_argument("--rays", type=int, default=4096)
     parser.add_argument("--sweeps", type=int, default=256)
     args = parser.parse_args()
-    from mitsar.scene.scene import load_scene
+    from mitsar.scene import load_scene
 
     scene = load_scene(args.scene)
     raw = raw_intersect(scene, 2**20)

@@ -110,8 +110,8 @@ def child(kind: str, scene_name: str, sweeps: int, density: float | None) -> Non
     The scene is loaded and traced for 8 sweeps first (imports, kernels, scatterers), then the
     peak counter is reset (``/proc/self/clear_refs``) and the case runs.
     """
-    from mitsar.scene.scene import load_scene
     from mitsar.raw.traced import simulate_scene, trace
+    from mitsar.scene import load_scene
 
     scene = load_scene(scene_name)
     function = simulate_scene if kind == "simulate_scene" else trace
@@ -143,7 +143,7 @@ def main() -> None:
         child(args.child[0], args.scene, int(args.child[1]), args.density)
         return
 
-    from mitsar.scene.scene import load_scene
+    from mitsar.scene import load_scene
 
     scene = load_scene(args.scene)
     rays = mitsuba_rays(scene, args.rays)

@@ -22,9 +22,9 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 import mitsar  # noqa: E402
+from mitsar.focus.grid import SlantGrid, equivalent_position  # noqa: E402
 from mitsar.focus.motion import doppler_range_shift  # noqa: E402
 from mitsar.model.geometry.attitude import boresight  # noqa: E402
-from mitsar.focus.grid import SlantGrid, equivalent_position  # noqa: E402
 from mitsar.plots.products import save_figure  # noqa: E402
 
 RADAR = mitsar.Radar()

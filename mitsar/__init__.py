@@ -7,8 +7,8 @@ the stages: model → scene → raw → focus → quality, with ambiguity maps b
 from mitsar import ambiguity
 from mitsar.errors import MitsarError, ParameterError
 from mitsar.focus import grid
-from mitsar.focus.dispatch import focus
 from mitsar.focus.compression import range_compress
+from mitsar.focus.dispatch import focus
 from mitsar.io import load, save
 from mitsar.model.geometry.attitude import Look, boresight
 from mitsar.model.geometry.trajectory import Trajectory

@@ -25,7 +25,9 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from mitsar.ambiguity.gradient import run_ambiguity_experiment
+import matplotlib.pyplot as plt
+
+from mitsar.ambiguity.run import run_ambiguity_experiment
 from mitsar.errors import MitsarError
 from mitsar.experiment import montecarlo
 from mitsar.experiment.examples import example_path
@@ -34,6 +36,17 @@ from mitsar.experiment.options import ALGORITHMS, ISLR_EXTENTS, WINDOWS, FocusOp
 from mitsar.experiment.runs import run_focus, run_metrics, run_simulation
 from mitsar.focus.compression import range_compress
 from mitsar.io import ProductFileError, check_writable, load, save, to_jsonable, write_json
+from mitsar.plots.products import (
+    background_samples,
+    plot_background_histograms,
+    plot_cuts,
+    plot_file,
+    plot_image,
+    plot_range_compressed,
+    save_figure,
+    target_marks,
+)
+from mitsar.plots.rays import run_figures
 from mitsar.version import __version__
 
 __all__ = ["build_parser", "main"]
@@ -170,9 +183,6 @@ def cmd_metrics(args: argparse.Namespace) -> int:
 
 def cmd_plot(args: argparse.Namespace) -> int:
     """``mitsar plot``: product file -> figure."""
-    # mitsar.plots imports matplotlib: kept lazy so that the other commands start fast
-    from mitsar.plots.products import plot_file
-
     plot_file(args.file, args.output, overwrite=args.overwrite,
               dynamic_range_db=args.dynamic_range)
     _log(args, f"wrote {args.output}")
@@ -233,19 +243,6 @@ def run_demo(experiment: Any, paths: dict[str, Path], overwrite: bool = False,
 def _demo_figures(raw: Any, image: Any, metrics: dict[str, Any], paths: dict[str, Path],
                   overwrite: bool) -> None:
     """The four demo figures."""
-    # matplotlib (and mitsar.plots, which imports it) stays lazy: only figures need it
-    import matplotlib.pyplot as plt
-
-    from mitsar.plots.products import (
-        background_samples,
-        plot_background_histograms,
-        plot_cuts,
-        plot_image,
-        plot_range_compressed,
-        save_figure,
-        target_marks,
-    )
-
     figure, ax = plt.subplots(figsize=(8, 5), layout="constrained")
     plot_range_compressed(raw, ax=ax)
     save_figure(figure, paths["range_figure"], overwrite)
@@ -305,9 +302,6 @@ def cmd_montecarlo(args: argparse.Namespace) -> int:
 
 def cmd_rays(args: argparse.Namespace) -> int:
     """``mitsar rays``: ray geometry and echo figures of a scene experiment."""
-    # mitsar.plots imports matplotlib: kept lazy so that the other commands start fast
-    from mitsar.plots.rays import run_figures
-
     _log(args, f"tracing rays of {args.experiment} (sweep {args.sweep}) ...")
     summary = run_figures(args.experiment, args.output, args.rays, args.sweep,
                           overwrite=args.overwrite)

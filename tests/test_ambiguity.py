@@ -16,7 +16,7 @@ import pytest
 import xarray as xr
 
 import mitsar
-from mitsar.ambiguity.gradient import (
+from mitsar.ambiguity import (
     SurfacePoints,
     ambiguity,
     compare_trajectories,
@@ -217,7 +217,7 @@ def test_prediction_matches_focused_irw(squint_deg: float, plane: str, along: st
 # --------------------------------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def box_scene():
-    from mitsar.ambiguity.gradient import _mitsuba
+    from mitsar.scene import import_mitsuba as _mitsuba
 
     mi = _mitsuba()
     transform = mi.ScalarTransform4f
@@ -266,7 +266,7 @@ def test_outside_beam_and_shadowed_surfaces_are_not_observed(box_scene) -> None:
 
 
 def test_canned_scene_surfaces() -> None:
-    pytest.importorskip("mitsar.scene.scene")
+    pytest.importorskip("mitsar.scene")
     from mitsar.scene import canned as scenes
 
     if "box_obstacle" not in scenes.names():
@@ -394,7 +394,7 @@ duration = 6.0
 
 
 def test_example_files_validate() -> None:
-    from mitsar.experiment.config import examples_dir
+    from mitsar.experiment.examples import examples_dir
 
     files = sorted(examples_dir().glob("ambiguity_*.toml"))
     assert files

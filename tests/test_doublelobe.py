@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
+from mitsar.errors import ParameterError
 from mitsar.model import doublelobe as dl
 from mitsar.model.doublelobe import DoubleLobe
-from mitsar.errors import ParameterError
 
 THETAS_DEG = (0.0, 30.0, 60.0, 80.0)
 ALPHAS = ((6.0, 3.0), (4.0, 4.0), (2.5, 1.7), (1.0, 1.0))
@@ -247,7 +247,7 @@ def test_presets_and_overrides() -> None:
 
 @pytest.fixture(scope="module")
 def mi():
-    from mitsar.scene.scene import register_plugins
+    from mitsar.scene import register_plugins
 
     register_plugins()
     import mitsuba

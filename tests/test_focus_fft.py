@@ -19,13 +19,13 @@ import pytest
 
 import mitsar
 from mitsar.errors import ParameterError
+from mitsar.focus.grid import PlaneGrid, SlantGrid, equivalent_position
 from mitsar.focus.motion import doppler_range_shift
 from mitsar.focus.spectral import chirp_z, evaluate_dtft
 from mitsar.model.geometry.attitude import boresight
-from mitsar.focus.grid import PlaneGrid, SlantGrid, equivalent_position
-from mitsar.quality.impulse import measure_impulse_response
 from mitsar.model.radar import SPEED_OF_LIGHT
 from mitsar.model.signal import apparent_beat_frequency
+from mitsar.quality.impulse import measure_impulse_response
 
 RADAR = mitsar.Radar()
 RHO = 0.10

@@ -7,13 +7,13 @@ import numpy as np
 import pytest
 
 import mitsar
-from mitsar.model import histogram as hg
 from mitsar.errors import ParameterError
+from mitsar.model import histogram as hg
 from mitsar.model.geometry.antenna import two_way_pattern
 from mitsar.model.geometry.attitude import antenna_frame
 from mitsar.model.radar import SPEED_OF_LIGHT
-from mitsar.raw.product import sweep_geometry
 from mitsar.model.signal import dechirped_phase_cycles, fast_time, radar_equation_amplitude
+from mitsar.raw.product import sweep_geometry
 
 RADAR = mitsar.Radar()
 

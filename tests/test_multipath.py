@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 import mitsar
-from mitsar.model import multipath as mp
 from mitsar.errors import ParameterError
+from mitsar.model import multipath as mp
 from mitsar.model.geometry.antenna import direction_sines, one_way_pattern
 from mitsar.model.geometry.attitude import antenna_frame
 from mitsar.model.radar import SPEED_OF_LIGHT
@@ -340,7 +340,7 @@ def test_ghosts_are_optional_and_need_a_reflection(paper_2d):
 
 
 def test_parameters_of_the_multipath_mechanism(tmp_path):
-    from mitsar.scene.scene import load_scene
+    from mitsar.scene import load_scene
 
     declared = _write(tmp_path, "declared",
                       '<integrator type="radar"><integer name="max_depth" value="3"/>'
@@ -384,7 +384,7 @@ def test_plane_sequences_of_a_trihedral_share_one_image():
 def test_examples_load_and_the_2d_case_runs_from_its_experiment(tmp_path):
     """The four examples validate; case 2 runs through run_simulation (the CLI's path) with its
     multipath keys, and the reflections are order 2 of the product."""
-    from mitsar.experiment.config import example_path, load_experiment, run_simulation
+    from mitsar.experiment import example_path, load_experiment, run_simulation
 
     loaded = {name: load_experiment(example_path(name))
               for name in ("case1_2d", "case2_2d", "dihedral_3d", "trihedral_3d")}

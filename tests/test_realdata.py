@@ -16,8 +16,8 @@ import xarray as xr
 import mitsar
 from mitsar.errors import MitsarError, ParameterError
 from mitsar.focus.grid import PlaneGrid, SlantGrid, equivalent_position
-from mitsar.quality.impulse import measure_impulse_response
 from mitsar.model.radar import SPEED_OF_LIGHT
+from mitsar.quality.impulse import measure_impulse_response
 from mitsar.raw.recorded import raw_from_arrays, read_gotcha, read_raw
 
 GOTCHA = Path(__file__).resolve().parents[1].parent / "shared" / "realdata" / "gotcha-sample"

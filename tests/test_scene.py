@@ -8,10 +8,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mitsar.scene import scene as ms
-from mitsar.scene import canned as scenes
+import mitsar.scene as ms
+from mitsar import backend
 from mitsar.backend import BackendError
 from mitsar.errors import MissingFileError, ParameterError
+from mitsar.scene import canned as scenes
 
 ROOM = (np.zeros(3), np.array([30.0, 10.0, 6.0]))
 
@@ -49,8 +50,8 @@ def test_plugins_follow_variant_changes(mi) -> None:
 def test_ensure_variant_errors(mi, monkeypatch: pytest.MonkeyPatch) -> None:
     with pytest.raises(ParameterError, match="parameter 'variant'"):
         ms.ensure_variant("scalar_rgb")
-    assert ms._llvm_probe()[0]
-    monkeypatch.setattr(ms, "_llvm_probe", lambda: (False, "LLVM ERROR: Cannot select"))
+    assert backend.llvm_probe()[0]
+    monkeypatch.setattr(backend, "llvm_probe", lambda: (False, "LLVM ERROR: Cannot select"))
     with pytest.raises(BackendError, match="libllvm19") as info:
         ms.ensure_variant("llvm_ad_mono")
     assert "DRJIT_LIBLLVM_PATH" in str(info.value)
@@ -287,7 +288,7 @@ def test_scatterers_on_a_smooth_shaded_mesh_get_face_normals(tmp_path):
     import shutil
 
     import mitsar.scene.canned as canned
-    from mitsar.scene.scene import load_scene, sample_surface_scatterers, scene_surfaces
+    from mitsar.scene import load_scene, sample_surface_scatterers, scene_surfaces
 
     source = canned.path("box_obstacle")
     shutil.copytree(source.parent / "meshes", tmp_path / "meshes")

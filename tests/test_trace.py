@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 import mitsar
-from mitsar.model.doublelobe import DoubleLobe
 from mitsar.errors import ParameterError
-from mitsar.model.geometry.attitude import antenna_frame
 from mitsar.focus.grid import SlantGrid, equivalent_position
+from mitsar.model.doublelobe import DoubleLobe
+from mitsar.model.geometry.attitude import antenna_frame
 from mitsar.quality.impulse import measure_impulse_response
 from mitsar.raw.traced import histogram_to_raw_product, simulate_scene, trace
 
@@ -124,7 +124,7 @@ def test_simulate_scene_adds_analytic_targets_and_selects_orders():
 def _incoherent_power(scene, histogram, look, material, density, seed):
     """Closed form per scatterer, P_r = P_T G^2 lambda^2 sigma0 A P^2 / ((4 pi)^3 R^4),
     summed over the scatterers (mean over sweeps); P: the one-way sinc^2 aperture pattern."""
-    from mitsar.scene.scene import sample_surface_scatterers
+    from mitsar.scene import sample_surface_scatterers
 
     scatterers = sample_surface_scatterers(scene, density, seed)
     offset = scatterers.positions[None] - histogram["platform_position"].values[:, None]
@@ -156,7 +156,7 @@ def test_floor_patch_returns_the_radar_equation_power(tmp_path, incidence_deg):
                            ('<bsdf type="doublelobe"><float name="sigma0_db" value="-20"/>'
                             '</bsdf>', DoubleLobe(sigma0_db=-20.0))):
         path = _write(tmp_path, "patch", _rectangle("patch", (15, 8, 0), (0.5, 1.0), bsdf))
-        from mitsar.scene.scene import load_scene
+        from mitsar.scene import load_scene
 
         scene = load_scene(path)
         ratios = []
@@ -244,14 +244,14 @@ def test_point_target_on_a_floor_is_not_shadowed_by_it(tmp_path):
 # --- parameters --------------------------------------------------------------------------------
 
 def test_integrator_rejects_unknown_parameters_and_unsupported_depth(tmp_path):
-    from mitsar.scene.scene import register_plugins
+    from mitsar.scene import register_plugins
 
     register_plugins()
     with pytest.raises(Exception, match="bogus"):
         mi.load_dict({"type": "radar", "bogus": 1.0})
     with pytest.raises(Exception, match="chunk_lanes"):
         mi.load_dict({"type": "radar", "chunk_lanes": 2**27})
-    from mitsar.scene.scene import load_scene
+    from mitsar.scene import load_scene
 
     bogus = _write(tmp_path, "bogus", '<integrator type="radar"><float name="bogus" '
                    'value="1"/></integrator>')
@@ -278,8 +278,8 @@ def test_kernel_equals_the_numpy_reference_for_surface_scatterers(tmp_path):
     sigma0 model, fixed speckle phases, sinc^2 pattern without culling): the same numbers up to
     float32 directions and the sigma0 table (measured -118 dB)."""
     from mitsar.model import histogram as hg
-    from mitsar.scene.scene import load_scene, sample_surface_scatterers
     from mitsar.model.signal import radar_equation_amplitude
+    from mitsar.scene import load_scene, sample_surface_scatterers
 
     track = mitsar.Trajectory.linear([14.8, 1.4, 4.5], [0.5, 0.0, 0.0], 0.04)
     path = _write(tmp_path, "two", _rectangle("floor", (15, 8, 0), (0.6, 0.6), CONCRETE)

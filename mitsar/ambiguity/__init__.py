@@ -1,12 +1,36 @@
-"""Resolution and ambiguity maps by the gradient method (see ``docs/ambiguity.md``)."""
+"""Resolution and ambiguity maps by the gradient method (see ``docs/ambiguity.md``).
 
-from mitsar.ambiguity.gradient import (
-    ambiguity,
+Gradients and resolutions (:mod:`~mitsar.ambiguity.gradient`), surface points
+(:mod:`~mitsar.ambiguity.points`), platform states (:mod:`~mitsar.ambiguity.states`), shadows
+(:mod:`~mitsar.ambiguity.shadows`), the maps (:mod:`~mitsar.ambiguity.maps`), trajectories
+compared (:mod:`~mitsar.ambiguity.comparison`), figures (:mod:`~mitsar.ambiguity.plots`), the
+TOML file (:mod:`~mitsar.ambiguity.config`) and its run (:mod:`~mitsar.ambiguity.run`).
+"""
+
+from mitsar.ambiguity.comparison import (
     compare_trajectories,
+    comparison_from_products,
     comparison_table,
-    plot_ambiguity,
-    run_ambiguity_experiment,
 )
+from mitsar.ambiguity.config import load_ambiguity_experiment
+from mitsar.ambiguity.gradient import delay_gradient, doppler_gradient, gradient_resolution
+from mitsar.ambiguity.maps import OBSERVATION_MEANINGS, STATUS_MEANINGS, ambiguity, surface_summary
+from mitsar.ambiguity.plots import (
+    plot_ambiguity,
+    plot_ambiguity_3d,
+    plot_ambiguity_maps,
+    plot_ambiguity_timeline,
+    plot_comparison,
+)
+from mitsar.ambiguity.points import SurfacePoints, plane_points, sample_surfaces
+from mitsar.ambiguity.run import run_ambiguity_experiment
+from mitsar.ambiguity.shadows import planes_scene
 
-__all__ = ["ambiguity", "compare_trajectories", "comparison_table", "plot_ambiguity",
-           "run_ambiguity_experiment"]
+__all__ = [
+    "OBSERVATION_MEANINGS", "STATUS_MEANINGS", "SurfacePoints", "ambiguity",
+    "compare_trajectories", "comparison_from_products", "comparison_table", "delay_gradient",
+    "doppler_gradient", "gradient_resolution", "load_ambiguity_experiment", "plane_points",
+    "planes_scene", "plot_ambiguity", "plot_ambiguity_3d", "plot_ambiguity_maps",
+    "plot_ambiguity_timeline", "plot_comparison", "run_ambiguity_experiment", "sample_surfaces",
+    "surface_summary",
+]

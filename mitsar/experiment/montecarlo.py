@@ -27,6 +27,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+import matplotlib.pyplot as plt
 import numpy as np
 import xarray as xr
 from tqdm.auto import tqdm
@@ -39,6 +40,7 @@ from mitsar.experiment.options import Experiment
 from mitsar.focus.dispatch import ALGORITHMS
 from mitsar.focus.grid import equivalent_position
 from mitsar.io import save
+from mitsar.plots.products import save_figure
 from mitsar.quality.impulse import measure_impulse_response
 from mitsar.version import __version__
 
@@ -321,14 +323,6 @@ def realisation_cuts(experiment: Any, algorithm: str = "bpa", realisations: int 
 def plot_realisation_cuts(cuts: dict[str, Any], path: str | os.PathLike,
                           overwrite: bool = False) -> Path:
     """Figure like paper Figs. 8-9: cuts of several realisations over the nominal response."""
-    # matplotlib (and mitsar.plots, which imports it) stays lazy: only figures need it
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from mitsar.plots.products import save_figure
-
     figure, axes = plt.subplots(1, 2, figsize=(11, 4), constrained_layout=True)
     for ax, direction in zip(axes, DIRECTIONS, strict=True):
         offset = cuts[f"{direction}_offset"]

@@ -10,14 +10,19 @@ import numpy as np
 import xarray as xr
 
 from mitsar.errors import ParameterError
-from mitsar.focus.bpa import aperture_half_width, focus_bpa
-from mitsar.focus.windows import WINDOWS
+from mitsar.focus.aperture import aperture_half_width
+from mitsar.focus.bpa import focus_bpa
+from mitsar.focus.frequency_domain import focus_frequency_domain
 from mitsar.focus.grid import Grid, SlantGrid, from_dict
 from mitsar.focus.image import make_image_product
-from mitsar.focus.spectral import focus_frequency_domain
+from mitsar.focus.referenced import focus_referenced
+from mitsar.focus.windows import WINDOWS
+from mitsar.model.radar import Radar
 from mitsar.raw.product import radar_of
 
 ALGORITHMS = ("bpa", "rda", "wda", "fsa")
+"""Names of the focusing algorithms."""
+
 
 def focus(raw: xr.Dataset, algorithm: str = "bpa", grid: Grid | dict | None = None, *,
           window: str = "rect", range_window: str | None = None,
@@ -95,8 +100,6 @@ def focus(raw: xr.Dataset, algorithm: str = "bpa", grid: Grid | dict | None = No
                   "backend": backend}
     if "reference_range" in raw.variables:
         # Recorded data referenced to a scene point (mitsar.raw.recorded): back-projection only.
-        from mitsar.raw.recorded import focus_referenced
-
         if algorithm != "bpa":
             raise ParameterError("focus", "algorithm", "'bpa' for recorded data referenced to "
                                  "a scene point (raw has 'reference_range')", algorithm)
@@ -125,7 +128,7 @@ def focus(raw: xr.Dataset, algorithm: str = "bpa", grid: Grid | dict | None = No
                               coverage=np.reshape(coverage, shape))
 
 
-def _check_processed_band(raw: xr.Dataset, radar, half_width: float,
+def _check_processed_band(raw: xr.Dataset, radar: Radar, half_width: float,
                           azimuth_resolution: float | None) -> None:
     """Refuse a hovering platform and a processed Doppler band wider than the PRF.
 

@@ -49,33 +49,23 @@ aperture half width."""
 
 @dataclass(frozen=True)
 class TrackGeometry:
-    """A straight track flown at constant velocity, as the frequency-domain algorithms see it.
-
-    Attributes
-    ----------
-    origin : ndarray, shape (3,)
-        Antenna position of the first sweep (mid-sweep) [m]; the slant grid's origin.
-    along : ndarray, shape (3,)
-        Unit vector along the track (mean velocity).
-    look : ndarray, shape (3,)
-        Unit vector normal to the track toward the mean boresight (the slant grid's range
-        direction).
-    speed : float
-        Platform speed from the sweep positions [m/s].
-    spacing : float
-        Along-track distance between sweeps [m] (``speed / PRF``).
-    sweeps : int
-    centroid_sine : float
-        Mean Doppler-centroid direction sine ``u_c = v_hat . l_hat`` (positive: looking ahead).
-    """
+    """A straight track flown at constant velocity, as the frequency-domain algorithms see it."""
 
     origin: NDArray[np.float64]
+    """Antenna position of the first sweep (mid-sweep) [m], shape (3,); the slant grid's origin."""
     along: NDArray[np.float64]
+    """Unit vector along the track (mean velocity), shape (3,)."""
     look: NDArray[np.float64]
+    """Unit vector normal to the track toward the mean boresight (the slant grid's range
+    direction), shape (3,)."""
     speed: float
+    """Platform speed from the sweep positions [m/s]."""
     spacing: float
+    """Along-track distance between sweeps [m] (``speed / PRF``)."""
     sweeps: int
+    """Number of sweeps."""
     centroid_sine: float
+    """Mean Doppler-centroid direction sine ``u_c = v_hat . l_hat`` (positive: looking ahead)."""
 
 
 def _refuse(name: str, expected: str, found: object) -> ParameterError:
@@ -213,7 +203,7 @@ def doppler_range_shift(radar: Radar, doppler_frequency: ArrayLike) -> NDArray:
     """Apparent line-of-sight displacement of a target without motion correction [m].
 
     ``delta = -c f_D / (2K)``: from the beat frequency ``K tau + f_c dtau/dt = K tau - f_D``
-    (:func:`mitsar.model.signal.apparent_beat_frequency`); an approaching target (``f_D > 0``) appears
-    nearer. 9.8 mm (0.1 cell) at the edge of the paper's 9 deg beam at 0.5 m/s.
+    (:func:`mitsar.model.signal.apparent_beat_frequency`); an approaching target (``f_D > 0``)
+    appears nearer. 9.8 mm (0.1 cell) at the edge of the paper's 9 deg beam at 0.5 m/s.
     """
     return -SPEED_OF_LIGHT * np.asarray(doppler_frequency) / (2.0 * radar.chirp_rate)

@@ -113,37 +113,28 @@ def evaluate_dtft(x: NDArray, scale: ArrayLike, points: ArrayLike, offset: Array
 # --------------------------------------------------------------------------------------------
 @dataclass
 class Spectrum:
-    """Data in the (RF frequency, azimuth wavenumber) domain, ready for an algorithm.
-
-    Attributes
-    ----------
-    data : ndarray, shape (Q, N)
-        ``S(k_x[q], k_r[n])`` after RVP removal, range window, azimuth transform, ``H_cm`` and
-        the azimuth weighting (window, matched-filter amplitude, normalisation, ``exp(-j pi/4)``);
-        rows outside the processed band are dropped.
-    k_r : ndarray, shape (N,)
-        Two-way wavenumber of each fast-time sample [rad/m].
-    k_x : ndarray, shape (Q,)
-        Along-track wavenumber of each row, evenly spaced and ascending [rad/m].
-    k_c : float
-        ``4 pi f_c / c`` [rad/m].
-    radar : Radar
-    track : TrackGeometry
-    azimuth, slant_range : ndarray
-        Output coordinates: along track from the first sweep, distance from the track [m].
-    reference_range : float
-        Centre of the output range span [m] (reference of RFM / SRC).
-    """
+    """Data in the (RF frequency, azimuth wavenumber) domain, ready for an algorithm."""
 
     data: NDArray[np.complex128]
+    """``S(k_x[q], k_r[n])``, shape (Q, N), after RVP removal, range window, azimuth transform,
+    ``H_cm`` and the azimuth weighting (window, matched-filter amplitude, normalisation,
+    ``exp(-j pi/4)``); rows outside the processed band are dropped."""
     k_r: NDArray[np.float64]
+    """Two-way wavenumber of each fast-time sample [rad/m], shape (N,)."""
     k_x: NDArray[np.float64]
+    """Along-track wavenumber of each row, evenly spaced and ascending [rad/m], shape (Q,)."""
     k_c: float
+    """``4 pi f_c / c`` [rad/m]."""
     radar: Radar
+    """The radar of the raw product."""
     track: TrackGeometry
+    """The straight track (:func:`mitsar.focus.motion.straight_track`)."""
     azimuth: NDArray[np.float64]
+    """Output along-track coordinates from the first sweep [m]."""
     slant_range: NDArray[np.float64]
+    """Output distances from the track [m]."""
     reference_range: float
+    """Centre of the output range span [m] (reference of RFM / SRC)."""
 
     @property
     def sample_wavenumber_step(self) -> float:
@@ -298,53 +289,3 @@ def secondary_range_compression(spectrum: Spectrum) -> NDArray[np.complex128]:
     d = spectrum.cosine_factor()[:, None]
     residual = (np.sqrt(k_r**2 - k_x**2) - d * spectrum.k_c - (k_r - spectrum.k_c) / d)
     return np.exp(-1j * spectrum.reference_range * residual)
-
-
-def focus_frequency_domain(raw: xr.Dataset, algorithm: str, layout: dict, *, half_width: float,
-                           window: str, range_window: str, remove_rvp_flag: bool,
-                           motion_correction: bool, options: dict | None = None
-                           ) -> tuple[NDArray[np.complex128], NDArray[np.float64], dict]:
-    """Focus with RDA, WDA or FSA onto a resolved slant grid.
-
-    Returns the image (shape of the grid), the aperture coverage of every pixel
-    (:func:`aperture_coverage`) and extra processing attributes.
-    """
-    from mitsar.focus.fsa import focus_fsa
-    from mitsar.focus.rda import focus_rda
-    from mitsar.focus.wda import focus_wda
-    from mitsar.raw.product import radar_of
-
-    functions = {"rda": focus_rda, "wda": focus_wda, "fsa": focus_fsa}
-    options = dict(options or {})
-    radar = radar_of(raw)
-    spectrum = prepare_spectrum(raw, radar, layout, half_width=half_width, window=window,
-                                range_window=range_window, remove_rvp_flag=remove_rvp_flag,
-                                motion_correction=motion_correction, where=algorithm)
-    import inspect
-
-    allowed = [name for name in inspect.signature(functions[algorithm]).parameters
-               if name != "spectrum"]
-    unknown = sorted(set(options) - set(allowed))
-    if unknown:
-        raise ParameterError(algorithm, "algorithm_options", f"keys among {allowed}", unknown)
-    image, extra = functions[algorithm](spectrum, **options)
-    return image, aperture_coverage(spectrum, half_width), extra
-
-
-def aperture_coverage(spectrum: Spectrum, half_width: float) -> NDArray[np.float64]:
-    """Fraction of every pixel's processed aperture that lies on the recorded track.
-
-    The aperture of pixel (a, r) spans the along-track positions ``a - r g(u)`` for direction
-    sines ``u`` within ``u_c +- h`` (``g(u) = u / sqrt(1 - u^2)``); the image fades where it
-    runs off the track (no renormalisation), shape (len(azimuth), len(slant_range)).
-    """
-    track = spectrum.track
-    u_c = track.centroid_sine
-    low, high = u_c - half_width, u_c + half_width
-    a = spectrum.azimuth[:, None]
-    r = spectrum.slant_range[None, :]
-    start = a - r * high / np.sqrt(1 - high**2)
-    stop = a - r * low / np.sqrt(1 - low**2)
-    end = (track.sweeps - 1) * track.spacing
-    inside = np.clip(np.minimum(stop, end) - np.maximum(start, 0.0), 0.0, None)
-    return np.clip(inside / np.maximum(stop - start, 1e-12), 0.0, 1.0)

@@ -9,6 +9,10 @@ position: rectangular ``[1]``, Hamming ``[0.54, 0.46]``, Hann ``[0.5, 0.5]``, an
 
 from __future__ import annotations
 
+import math
+from collections.abc import Callable
+from typing import Any
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.signal import windows as scipy_windows
@@ -45,12 +49,33 @@ def window_coefficients(name: str, nbar: int = 4, sidelobe_db: float = 35.0) -> 
     raise ParameterError("window", "window", f"one of {WINDOWS}", name)
 
 
+def cosine_series(coefficients: Any, centred: Any, cos: Callable[[Any], Any]) -> Any:
+    """``a_0 + sum_m a_m cos(2 pi m xi)`` at ``xi = x - 1/2``, skipping zero coefficients.
+
+    The one expression of every window here, for NumPy (``cos = numpy.cos``) and inside the
+    Dr.Jit back-projection kernel (the coefficients are Python floats there, so a rectangular
+    window costs nothing).
+
+    Parameters
+    ----------
+    coefficients : sequence of float
+        Cosine-series coefficients ``a_m`` (:func:`window_coefficients`).
+    centred : array_like
+        Position relative to the window centre, ``xi in [-1/2, 1/2]``.
+    cos : callable
+        Cosine of the array type of ``centred``.
+    """
+    value = coefficients[0]
+    for harmonic in range(1, len(coefficients)):
+        if coefficients[harmonic] != 0.0:
+            value = value + coefficients[harmonic] * cos(2 * math.pi * harmonic * centred)
+    return value
+
+
 def evaluate_window(coefficients: ArrayLike, x: ArrayLike) -> NDArray:
     """Window value at normalised positions ``x in [0, 1]`` (0 outside)."""
     x = np.asarray(x, dtype=float)
-    coefficients = np.asarray(coefficients, dtype=float)
-    harmonics = np.arange(len(coefficients))
-    value = np.cos(2 * np.pi * harmonics * (x[..., None] - 0.5)) @ coefficients
+    value = cosine_series([float(c) for c in np.ravel(coefficients)], x - 0.5, np.cos)
     return np.where((x >= 0) & (x <= 1), value, 0.0)
 
 

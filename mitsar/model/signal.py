@@ -14,6 +14,8 @@ with beat frequency ``K tau`` and residual video phase ``-K tau^2 / 2`` (Meta 20
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -92,12 +94,30 @@ def radar_equation_amplitude(radar: Radar, rcs: ArrayLike, transmit_range: Array
     return np.sqrt(power)
 
 
+def beat_frequency(delay: Any, delay_rate: Any, chirp_rate: Any, carrier_frequency: Any) -> Any:
+    """Beat frequency of a moving echo, ``f = K tau + f_c dtau/dt`` [Hz] (Meta 2007 §II-B).
+
+    Operators only, so the same expression runs on NumPy arrays and inside the Dr.Jit
+    back-projection kernel (where ``K`` and ``f_c`` are opaque scalars).
+
+    Parameters
+    ----------
+    delay : array_like
+        Two-way delay ``tau`` [s].
+    delay_rate : array_like
+        ``dtau/dt`` [s/s]; 0 for the stop-and-go beat frequency ``K tau``.
+    chirp_rate, carrier_frequency : float or array_like
+        ``K`` [Hz/s] and ``f_c`` [Hz].
+    """
+    return chirp_rate * delay + carrier_frequency * delay_rate
+
+
 def apparent_beat_frequency(delay: ArrayLike, delay_rate: ArrayLike, radar: Radar) -> NDArray:
     """Beat frequency of a moving echo to first order in fast time [Hz] (DESIGN §5.5).
 
-    ``f = K tau_0 + f_c dtau/dt``: with the Doppler frequency ``f_D = -f_c dtau/dt`` the beat
-    frequency moves by ``-f_D``, which reads as a range shift of ``-c f_D / (2K)`` (Meta 2007
-    §II-B): an approaching target (f_D > 0) appears nearer.
+    ``f = K tau_0 + f_c dtau/dt`` (:func:`beat_frequency`): with the Doppler frequency
+    ``f_D = -f_c dtau/dt`` the beat frequency moves by ``-f_D``, which reads as a range shift of
+    ``-c f_D / (2K)`` (Meta 2007 §II-B): an approaching target (f_D > 0) appears nearer.
     """
-    return (radar.chirp_rate * np.asarray(delay)
-            + radar.carrier_frequency * np.asarray(delay_rate))
+    return beat_frequency(np.asarray(delay), np.asarray(delay_rate), radar.chirp_rate,
+                          radar.carrier_frequency)

@@ -23,15 +23,17 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+import matplotlib.pyplot as plt
 import numpy as np
 import xarray as xr
+from matplotlib.patches import Rectangle
 from numpy.typing import NDArray
 
 from mitsar.errors import ParameterError
 from mitsar.experiment.loading import load_experiment
 from mitsar.focus.compression import range_compress
 from mitsar.io import write_json
-from mitsar.plots.products import save_figure
+from mitsar.plots.products import save_figure  # sets the Agg backend
 from mitsar.raw.traced import histogram_to_raw_product, trace, trace_paths
 
 __all__ = ["beam_marks", "echo_profiles", "figure_echoes", "figure_ray_geometry_2d",
@@ -46,8 +48,6 @@ def _axes(ax: Any, projection: str | None = None, figsize: tuple[float, float] =
           ) -> Any:
     if ax is not None:
         return ax
-    import matplotlib.pyplot as plt
-
     fig = plt.figure(figsize=figsize)
     return fig.add_subplot(projection=projection)
 
@@ -94,8 +94,6 @@ def plot_rays_2d(paths: xr.Dataset, ax: Any = None, *, bounds: Sequence[float] |
     -------
     matplotlib Axes
     """
-    from matplotlib.patches import Rectangle
-
     ax = _axes(ax)
     u, v, labels = plane_axes(paths)
     start = paths["start"].values
@@ -152,8 +150,6 @@ def figure_ray_geometry_2d(paths: xr.Dataset, *, bounds: Sequence[float] | None 
     """Two panels as paper Fig. 10c-d: the ray geometry with the magnified area outlined, and
     the magnification. ``zoom`` defaults to a 1 m box around the captured rays' last hits (or
     around the antenna)."""
-    import matplotlib.pyplot as plt
-
     u, v, _ = plane_axes(paths)
     if zoom is None:
         centre = paths["transmitter"].values
@@ -284,8 +280,6 @@ def figure_echoes(histogram: xr.Dataset, marks: dict[str, float] | None = None,
                   sweep: int = 0, limits: Sequence[float] | None = None, title: str = "") -> Any:
     """Two panels as paper Fig. 10a-b: backscatter-only echoes after the range FFT, and the
     difference the reflections make."""
-    import matplotlib.pyplot as plt
-
     profiles = echo_profiles(histogram, sweep)
     if limits is None and marks and np.all(np.isfinite(list(marks.values()))):
         span = marks["FR"] - marks["NR"]
@@ -324,10 +318,6 @@ def run_figures(experiment_path: str | Path, out: str | Path, path_rays: int | N
         The summary (also written to ``summary.json``): NR/CS/FR, echo peaks per order, the
         ratio of the reflections' peak to the backscatter peak, captures.
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-
     exp = load_experiment(experiment_path)
     if exp.scene is None:
         raise ParameterError(str(experiment_path), "scene", "a scene (XML file or canned name) "

@@ -10,7 +10,7 @@ module          kind       XML type name
 
 Each module exposes ``register()``, which registers its plugin(s) for the *active* Mitsuba
 variant (Python plugin classes are tied to the variant they were created in). Call
-:func:`mitsar.scene.scene.register_plugins` rather than these directly: it picks and checks the variant,
+:func:`mitsar.scene.register_plugins` rather than these directly: it picks and checks the variant,
 registers every module listed in :data:`PLUGIN_MODULES` that exists, and registers again when the
 variant changes.
 

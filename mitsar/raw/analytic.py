@@ -25,7 +25,6 @@ from mitsar.model.geometry.antenna import two_way_pattern
 from mitsar.model.geometry.attitude import Look, antenna_frame
 from mitsar.model.geometry.trajectory import Trajectory
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
-from mitsar.raw.product import make_raw_product, sweep_geometry
 from mitsar.model.signal import (
     apparent_beat_frequency,
     dechirped_phase_cycles,
@@ -35,6 +34,7 @@ from mitsar.model.signal import (
     two_way_delay,
 )
 from mitsar.model.targets import Background, PointTarget
+from mitsar.raw.product import make_raw_product, sweep_geometry
 
 TABLE1_AZIMUTH_RESOLUTION = 0.10
 """Azimuth resolution of paper Table 1 [m], the default azimuth size of a background cell."""

@@ -28,11 +28,11 @@ import numpy as np
 import xarray as xr
 from numpy.typing import ArrayLike
 
-from mitsar.version import __version__
 from mitsar.model.geometry.attitude import Look, boresight
 from mitsar.model.geometry.trajectory import Trajectory
 from mitsar.model.radar import Radar
 from mitsar.model.signal import fast_time, sweep_start_times
+from mitsar.version import __version__
 
 
 def sweep_geometry(radar: Radar, trajectory: Trajectory, look: Look,

@@ -19,9 +19,9 @@ back-projection looks every pixel up at ``R - R_ref,k``.
 
 Products of :func:`raw_from_arrays` are ordinary raw products with two extra variables:
 ``reference_range`` (sweep) and ``frequency`` (sample); :func:`mitsar.focus.focus` sends them to
-:func:`focus_referenced` (BPA on any grid). When the samples are true FMCW sweeps with absolute
-range (no reference) and a sweep rate, pass ``continuous_motion=True`` to get a plain dechirped
-product that every algorithm accepts.
+:func:`mitsar.focus.referenced.focus_referenced` (BPA on any grid). When the samples are true
+FMCW sweeps with absolute range (no reference) and a sweep rate, pass ``continuous_motion=True``
+to get a plain dechirped product that every algorithm accepts.
 
 Files: :func:`read_raw` reads a mitsar raw product (netCDF), or the generic layout documented in
 ``docs/focusing.md`` from netCDF/HDF5/NPZ. :func:`read_gotcha` reads the AFRL GOTCHA volumetric
@@ -32,7 +32,6 @@ from __future__ import annotations
 
 import glob
 import json
-import math
 import os
 from pathlib import Path
 from typing import Any
@@ -41,12 +40,10 @@ import numpy as np
 import xarray as xr
 from numpy.typing import ArrayLike, NDArray
 
-from mitsar.version import __version__
 from mitsar.errors import MitsarError, ParameterError
-from mitsar.focus.compression import range_spectrum
-from mitsar.focus.windows import evaluate_window, window_coefficients
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
 from mitsar.model.signal import fast_time
+from mitsar.version import __version__
 
 FREQUENCY_TOLERANCE = 1e-3
 """Largest deviation of the frequencies from their linear fit, in frequency steps (GOTCHA's
@@ -250,128 +247,6 @@ def _straightness(positions: NDArray, velocities: NDArray, radar: Radar) -> bool
 
 
 # --------------------------------------------------------------------------------------------
-# Back-projection of referenced data
-# --------------------------------------------------------------------------------------------
-def aperture_resolution(raw: xr.Dataset, point: ArrayLike) -> float:
-    """Nominal azimuth resolution ``lambda_c / (2 dtheta)`` of the whole aperture seen from
-    ``point`` (``dtheta`` the angle between the first and last lines of sight) [m]."""
-    positions = np.asarray(raw["platform_position"].values, dtype=float)
-    point = np.asarray(point, dtype=float)
-    first = positions[0] - point
-    last = positions[-1] - point
-    cosine = first @ last / (np.linalg.norm(first) * np.linalg.norm(last))
-    angle = float(np.arccos(np.clip(cosine, -1.0, 1.0)))
-    wavelength = SPEED_OF_LIGHT / float(raw.attrs["radar_carrier_frequency"])
-    return wavelength / (2 * angle) if angle > 0 else math.inf
-
-
-def backproject_referenced(profile: NDArray, frequency: NDArray, radar: Radar, pixels: NDArray,
-                           positions: NDArray, reference_range: NDArray,
-                           sweep_weight: NDArray | None = None, chunk: int = 1 << 22,
-                           ) -> tuple[NDArray, NDArray]:
-    """Back-projection of range profiles referenced to ``reference_range`` (NumPy, chunked).
-
-    Pixel x, row k: ``dR = |x - p_k| - R_ref,k``; the profile is interpolated (linearly, on its
-    zero-padded axis) at the beat frequency ``2 K dR / c``, wrapped into the unambiguous band,
-    and de-rotated by ``exp(-j 4 pi f_c dR / c)``.
-
-    Parameters
-    ----------
-    profile : ndarray, shape (S, F)
-        Range profiles on the ascending uniform beat-frequency axis ``frequency`` [Hz]
-        (:func:`mitsar.focus.compression.range_spectrum`).
-    radar : Radar
-        The equivalent radar.
-    pixels : ndarray, shape (P, 3)
-    positions : ndarray, shape (S, 3)
-    reference_range : ndarray, shape (S,)
-    sweep_weight : ndarray, shape (S,), optional
-        Azimuth weight of every row (window over the aperture); ones by default.
-    chunk : int
-        Bound on pixels x rows evaluated at once.
-
-    Returns
-    -------
-    weighted_sum : ndarray, shape (P,), complex
-    total_weight : float
-    """
-    sweeps, bins = profile.shape
-    weight = np.ones(sweeps) if sweep_weight is None else np.asarray(sweep_weight, float)
-    step = frequency[1] - frequency[0]
-    period = bins * step  # the profile is periodic in beat frequency (DFT)
-    scale = 2 * radar.chirp_rate / SPEED_OF_LIGHT
-    cycles_per_metre = 2 * radar.carrier_frequency / SPEED_OF_LIGHT
-    out = np.zeros(len(pixels), dtype=complex)
-    per = max(1, chunk // sweeps)
-    rows = np.arange(sweeps)[:, None]
-    for start in range(0, len(pixels), per):
-        block = pixels[start:start + per]
-        distance = np.linalg.norm(block[None, :, :] - positions[:, None, :], axis=-1)
-        delta = distance - reference_range[:, None]
-        index = np.mod(scale * delta - frequency[0], period) / step
-        lower = np.floor(index).astype(np.int64)
-        fraction = index - lower
-        upper = (lower + 1) % bins
-        lower %= bins
-        value = profile[rows, lower] * (1 - fraction) + profile[rows, upper] * fraction
-        cycles = cycles_per_metre * delta
-        value *= np.exp(-2j * np.pi * (cycles - np.floor(cycles)))
-        out[start:start + per] = weight @ value
-    return out, float(weight.sum())
-
-
-def focus_referenced(raw: xr.Dataset, grid: Any, *, azimuth_resolution: float | None,
-                     window: str, range_window: str, range_upsample: int = 16
-                     ) -> tuple[NDArray, dict, dict]:
-    """Back-project a referenced raw product (:func:`raw_from_arrays`) onto a grid.
-
-    The aperture is the recorded one, or, with ``azimuth_resolution`` rho, the rows whose line
-    of sight from the grid centre lies within ``+- lambda / (4 rho)`` of the middle row's; the
-    azimuth ``window`` runs over the rows used, and the image is normalised by the sum of
-    weights, so a point of amplitude A focuses to about A. The nominal azimuth resolution of
-    the image (its azimuth cell) is ``lambda / (2 dtheta)`` of the rows used.
-
-    Returns
-    -------
-    image : ndarray (grid shape)
-    layout : dict
-        The resolved grid.
-    processing : dict
-        Extra attributes of the image product.
-    """
-    from mitsar.raw.product import radar_of
-
-    radar = radar_of(raw)
-    positions = np.asarray(raw["platform_position"].values, float)
-    sweeps = len(positions)
-    centre = grid.resolve(raw, radar, 1.0)["position"]
-    centre = centre.reshape(-1, 3).mean(axis=0)
-    rows = np.arange(sweeps)
-    if azimuth_resolution is not None:
-        sight = positions - centre
-        sight /= np.linalg.norm(sight, axis=1, keepdims=True)
-        angle = np.arccos(np.clip(sight @ sight[sweeps // 2], -1.0, 1.0))
-        rows = np.flatnonzero(angle <= radar.wavelength / (4 * azimuth_resolution))
-        if len(rows) < 2:
-            raise ParameterError("focus", "azimuth_resolution",
-                                 "a resolution the recorded aperture can reach",
-                                 azimuth_resolution)
-    used = raw.isel(sweep=rows)
-    layout = grid.resolve(raw, radar, aperture_resolution(used, centre))
-    _, profile = range_spectrum(used["raw"].values, radar, window=range_window,
-                                remove_rvp=False, upsample=range_upsample, rvp_present=False)
-    frequency = np.sort(np.fft.fftfreq(profile.shape[1], 1.0 / radar.sampling_frequency))
-    weight = evaluate_window(window_coefficients(window), (np.arange(len(rows)) + 0.5)
-                             / len(rows))
-    pixels = layout["position"].reshape(-1, 3)
-    values, total = backproject_referenced(
-        profile, frequency, radar, pixels, positions[rows],
-        np.asarray(used["reference_range"].values, float), weight)
-    image = (values / total).reshape(layout["position"].shape[:2])
-    return image, layout, {"backend": "numpy", "referenced": 1, "rows_used": int(len(rows))}
-
-
-# --------------------------------------------------------------------------------------------
 # Files
 # --------------------------------------------------------------------------------------------
 def _generic_from_mapping(data: dict[str, Any], attrs: dict[str, Any], source: str
@@ -421,7 +296,7 @@ def read_raw(path: str | os.PathLike) -> xr.Dataset:
             data = {k: handle[k] for k in handle.files}
         return _generic_from_mapping(data, {}, str(path))
     if suffix in (".h5", ".hdf5", ".he5"):
-        import h5py
+        import h5py  # optional dependency, loaded for HDF5 files only
 
         try:
             with h5py.File(path, "r") as handle:
@@ -467,7 +342,7 @@ def read_gotcha(folder: str | os.PathLike, pass_number: int = 1, polarisation: s
         Apply AFRL's range correction ``af.r_correct`` (added to ``r0``) and phase correction
         ``exp(+j af.ph_correct)``.
     """
-    from scipy.io import loadmat
+    from scipy.io import loadmat  # loaded for GOTCHA files only
 
     folder = Path(folder)
     if azimuths is None:

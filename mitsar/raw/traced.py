@@ -38,16 +38,16 @@ import numpy as np
 import xarray as xr
 from numpy.typing import NDArray
 
-from mitsar.raw.analytic import simulate_point_targets
-from mitsar.version import __version__
-from mitsar.model import histogram as hg
 from mitsar.errors import ParameterError
+from mitsar.model import histogram as hg
 from mitsar.model.geometry.attitude import Look, antenna_frame
 from mitsar.model.geometry.trajectory import Trajectory
 from mitsar.model.radar import Radar
-from mitsar.raw.product import look_of, make_raw_product, radar_of, sweep_geometry
 from mitsar.model.signal import sweep_count
 from mitsar.model.targets import Background, PointTarget
+from mitsar.raw.analytic import simulate_point_targets
+from mitsar.raw.product import look_of, make_raw_product, radar_of, sweep_geometry
+from mitsar.version import __version__
 
 __all__ = ["histogram_to_raw_product", "simulate_scene", "trace", "trace_paths"]
 
@@ -65,7 +65,7 @@ class _Run:
                  scene_params: dict | None, multipath: dict | None = None,
                  receiver_offset: Any = None, receiver_look: Look | None = None,
                  backscatter: bool = True) -> None:
-        from mitsar.scene.scene import load_scene, register_plugins
+        from mitsar.scene import load_scene, register_plugins
 
         if not isinstance(radar, Radar):
             raise ParameterError(where, "radar", "a mitsar.Radar", type(radar))
@@ -244,7 +244,7 @@ def trace(radar: Radar, trajectory: Trajectory, look: Look, scene: Any, *,
     normalized : bool
         Unit amplitude per unit sqrt(RCS), no range loss (as :func:`simulate_point_targets`).
     scene_params : dict, optional
-        Values of the scene's ``<default>`` parameters (:func:`mitsar.scene.scene.load_scene`), e.g.
+        Values of the scene's ``<default>`` parameters (:func:`mitsar.scene.load_scene`), e.g.
         ``{"rcs": 2.0}`` for the canned ``point_target``.
     progress : bool
         Show a progress bar.

@@ -46,7 +46,6 @@ import mitsuba as mi
 
 from mitsar.model import doublelobe as dl
 from mitsar.model.doublelobe import DoubleLobe
-
 from mitsar.plugins import PerVariant, plugin_where, read_properties
 
 PLUGIN_NAME = "doublelobe"

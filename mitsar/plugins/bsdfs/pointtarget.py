@@ -14,7 +14,7 @@ XML::
 ``velocity`` may also be given as ``<vector name="velocity" x=".." y=".." z=".."/>``.
 
 The target is one scatterer at the centre of the shape's bounding box with the given RCS
-(:func:`mitsar.scene.scene.scene_point_targets`), shadowed by the rest of the scene. For rays the shape
+(:func:`mitsar.scene.scene_point_targets`), shadowed by the rest of the scene. For rays the shape
 is a black absorber (``eval``, ``pdf`` and ``sample`` return zero), so it does not also scatter as
 a surface. The integrator reads the Python attributes ``rcs`` [m²] and ``velocity`` [m/s] of the
 instance returned by ``shape.bsdf()``.
@@ -29,7 +29,6 @@ import drjit as dr
 import mitsuba as mi
 
 from mitsar.errors import ParameterError
-
 from mitsar.plugins import PerVariant, parse_vector3, plugin_where, read_properties
 
 PLUGIN_NAME = "pointtarget"

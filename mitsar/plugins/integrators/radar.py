@@ -25,9 +25,9 @@ resolution cell of paper Table 1: about 900 per m²).
 
 What it computes (DESIGN §5.4 mechanism 1, §5.5; ``docs/integrator.md``)
 -----------------------------------------------------------------------
-A fixed set of surface scatterers (:func:`mitsar.scene.scene.sample_surface_scatterers`: area
+A fixed set of surface scatterers (:func:`mitsar.scene.sample_surface_scatterers`: area
 sampling, one area share and one frozen speckle phase each) and the scene's point targets
-(:func:`mitsar.scene.scene.scene_point_targets`) are traced against every sweep of an acquisition in
+(:func:`mitsar.scene.scene_point_targets`) are traced against every sweep of an acquisition in
 one vectorised wavefront: one lane per (scatterer, sweep) pair, in chunks of up to 64 sweeps and
 ``chunk_lanes`` lanes. Per chunk, a kernel over all scatterers keeps those that can be in the beam
 of some sweep of the chunk (``_candidate_kernel``); over candidate x sweep lanes a second kernel
@@ -87,13 +87,13 @@ import numpy as np
 from numpy.typing import NDArray
 from tqdm.auto import tqdm
 
+from mitsar.errors import MitsarError, ParameterError
 from mitsar.model import histogram as hg
 from mitsar.model.doublelobe import monostatic_sigma0_table
-from mitsar.errors import MitsarError, ParameterError
 from mitsar.model.multipath import CAPTURE_KINDS, multipath_amplitude_constant
-from mitsar.plugins import parse_vector3, plugin_where, read_properties
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
 from mitsar.model.signal import radar_equation_amplitude
+from mitsar.plugins import parse_vector3, plugin_where, read_properties
 
 PLUGIN_NAME = "radar"
 """XML type name."""
@@ -296,8 +296,8 @@ class ScattererSet:
 
 
 def collect_scatterers(scene: Any, density: float, seed: int) -> ScattererSet:
-    """Surface scatterers and point targets of a loaded scene (:mod:`mitsar.scene.scene`)."""
-    from mitsar.scene.scene import sample_surface_scatterers, scene_point_targets, scene_surfaces
+    """Surface scatterers and point targets of a loaded scene (:mod:`mitsar.scene`)."""
+    from mitsar.scene import sample_surface_scatterers, scene_point_targets, scene_surfaces
 
     surf = sample_surface_scatterers(scene, density, seed)
     targets = scene_point_targets(scene)

@@ -13,7 +13,7 @@ box_obstacle       concrete floor and a 1 × 0.5 × 2 m concrete cabinet (PLY me
 ================== =========================================================================
 
 Walls are one rectangle each with the normal pointing into the room. Every scene declares
-``<default>`` parameters (e.g. ``material``) that :func:`mitsar.scene.scene.load_scene` accepts as
+``<default>`` parameters (e.g. ``material``) that :func:`mitsar.scene.load_scene` accepts as
 keywords. No scene names an integrator or sensor; the radar integrator is chosen in Python.
 """
 
