@@ -1,5 +1,5 @@
 """Throughput of the multipath mechanism (shooting and bouncing rays) next to raw Mitsuba ray
-casting, in the same run and on the same scene (DESIGN §7). Not a test.
+casting, in the same run and on the same scene (docs/design.md §7). Not a test.
 
 Cases (canned ``control_volume``, a closed concrete room, so every ray bounces until
 ``max_depth``; the paper's 3D pass P_0 = [0.4, 8, 1] m shifted to x = 3 m, 60 deg off-nadir,

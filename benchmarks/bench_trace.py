@@ -1,4 +1,4 @@
-"""Ray-tracing throughput and memory of the ``radar`` integrator (DESIGN §7). Not a test.
+"""Ray-tracing throughput and memory of the ``radar`` integrator (docs/design.md §7). Not a test.
 
 In one run, on the same scene (default: the canned ``control_volume`` room at the default
 density of 9 scatterers per resolution cell, ~0.97 M scatterers):

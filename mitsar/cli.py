@@ -33,6 +33,7 @@ from mitsar.experiment import montecarlo
 from mitsar.experiment.examples import example_path
 from mitsar.experiment.loading import focus_options_from_config, load_experiment, load_grid
 from mitsar.experiment.options import ALGORITHMS, ISLR_EXTENTS, WINDOWS, FocusOptions
+from mitsar.experiment.rays import run_rays
 from mitsar.experiment.runs import run_focus, run_metrics, run_simulation
 from mitsar.focus.compression import range_compress
 from mitsar.io import ProductFileError, check_writable, load, save, to_jsonable, write_json
@@ -46,7 +47,6 @@ from mitsar.plots.products import (
     save_figure,
     target_marks,
 )
-from mitsar.plots.rays import run_figures
 from mitsar.version import __version__
 
 __all__ = ["build_parser", "main"]
@@ -303,7 +303,7 @@ def cmd_montecarlo(args: argparse.Namespace) -> int:
 def cmd_rays(args: argparse.Namespace) -> int:
     """``mitsar rays``: ray geometry and echo figures of a scene experiment."""
     _log(args, f"tracing rays of {args.experiment} (sweep {args.sweep}) ...")
-    summary = run_figures(args.experiment, args.output, args.rays, args.sweep,
+    summary = run_rays(args.experiment, args.output, args.rays, args.sweep,
                           overwrite=args.overwrite)
     ratio = summary.get("reflections_over_backscatter_amplitude")
     print(f"captured reflected rays: {summary['captures']}; reflections / backscatter peak "

@@ -122,7 +122,7 @@ def test_sigma0_monostatic_concrete_35deg() -> None:
     cos35 = math.cos(math.radians(35.0))
     model = DoubleLobe.preset("concrete_94ghz")
     sigma0_db = 10 * math.log10(float(model.sigma0_monostatic(cos35)))
-    # DESIGN §5.3: "near 0 dB at 35°"; measured -0.172 dB (joint normalisation)
+    # docs/design.md §5.3: "near 0 dB at 35°"; measured -0.172 dB (joint normalisation)
     assert sigma0_db == pytest.approx(-0.1718, abs=1e-3)
     separate = model.replace(lobe_normalisation="separate")
     assert 10 * math.log10(float(separate.sigma0_monostatic(cos35))) == pytest.approx(

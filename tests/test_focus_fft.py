@@ -5,7 +5,7 @@ Scenes: one unit point target (no antenna pattern, normalised amplitude) seen at
 flying along +x long enough that every pixel of a +-0.6 m slant grid around the target has its
 whole processed aperture (10 cm azimuth resolution, paper Table 1).
 
-Closed forms (sar-processing-notes §2): rectangular spectrum IRW 0.886 cells, PSLR -13.26 dB,
+Closed forms (docs/design.md §5.7): rectangular spectrum IRW 0.886 cells, PSLR -13.26 dB,
 ISLR -10.69 dB within +-5 cells.
 """
 

@@ -1,5 +1,5 @@
 """Histogram deposits and histogram -> raw synthesis against the exact per-sample signal
-(DESIGN §5.5): pure NumPy, no Mitsuba."""
+(docs/design.md §5.5): pure NumPy, no Mitsuba."""
 
 import math
 
@@ -91,8 +91,8 @@ def scatterer_case():
 def test_histogram_synthesis_matches_the_exact_per_sample_signal(scatterer_case, bins_per_cell,
                                                                  limit_db):
     """Deposits at the mid-sweep delay and apparent range vs the analytic simulator's exact
-    per-sample delay. DESIGN §5.5 measured -54..-56 dB at 16 bins per cell, -30 dB at 4 (here
-    -55.5 and -31.0 dB)."""
+    per-sample delay. docs/design.md §5.5 measured -54..-56 dB at 16 bins per cell, -30 dB at 4
+    (here -55.5 and -31.0 dB)."""
     look, trajectory, position, velocity, rcs, exact = scatterer_case
     sweeps = exact.shape[0]
     geometry = sweep_geometry(RADAR, trajectory, look, sweeps)

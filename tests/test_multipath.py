@@ -1,4 +1,4 @@
-"""Multipath by shooting and bouncing rays (DESIGN §5.4 mechanism 2, docs/multipath.md): the
+"""Multipath by shooting and bouncing rays (docs/design.md §5.4 mechanism 2, docs/multipath.md): the
 ray-tube capture against the image method (mirror, bistatic dihedral and trihedral, monostatic
 corners), reciprocity, power along paths, Doppler, the 2D mode and the paper's 2D cases."""
 

@@ -1,8 +1,8 @@
-"""Tests of mitsar.quality.impulse against closed forms of the rectangular-spectrum impulse response.
+"""Tests of mitsar.quality against closed forms of the rectangular-spectrum impulse response.
 
-Closed forms (sinc, Cumming & Wong 2005 §2.6; values in /work/shared/reference/
-sar-processing-notes.md §2): IRW 0.8859 cells, PSLR −13.26 dB, ISLR −9.68 dB (infinite),
-−10.69 dB (±5 cells), −10.16 dB (±10 cells); Hamming (0.54) IRW 1.303 cells.
+Closed forms (sinc, Cumming & Wong 2005 §2.6; docs/design.md §5.7): IRW 0.8859 cells,
+PSLR −13.26 dB, ISLR −9.68 dB (infinite), −10.69 dB (±5 cells), −10.16 dB (±10 cells);
+Hamming (0.54) IRW 1.303 cells.
 
 Test responses are Dirichlet kernels (a rectangular spectrum of M bins on N samples), which are
 exactly band-limited and periodic; they differ from the sinc by O((x/M)²), which is where most of

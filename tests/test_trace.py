@@ -63,7 +63,7 @@ def canned_pair():
 def test_traced_point_target_reproduces_the_analytic_raw_data(canned_pair):
     traced, analytic = canned_pair
     assert traced["raw"].shape == analytic["raw"].shape == (150, 660)
-    # Measured -57.6 dB (16 bins per cell, linear splitting; DESIGN §5.5: -54 dB).
+    # Measured -57.6 dB (16 bins per cell, linear splitting; docs/design.md §5.5: -54 dB).
     assert _relative_error_db(traced["raw"].values, analytic["raw"].values) < -50.0
     np.testing.assert_allclose(traced["platform_position"], analytic["platform_position"])
     assert traced.attrs["point_target_count"] == 1 and traced.attrs["scatterer_count"] == 0

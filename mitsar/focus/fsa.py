@@ -1,5 +1,5 @@
 """Frequency-scaling algorithm (FSA) for dechirped FMCW data (Mittermayer, Moreira & Loffeld
-1999; FMCW form after Jiang et al. 2007 and sar-processing-notes §3).
+1999; FMCW form after Jiang et al. 2007 and docs/design.md §5.6).
 
 After the common front end (:mod:`mitsar.focus.spectral`: RVP removal, azimuth FFT, ``H_cm``,
 azimuth weighting) and a bulk secondary range compression, a target at closest range ``R0`` is,

@@ -1,7 +1,7 @@
 """Platform motion for frequency-domain focusing: straight-track check, Doppler centroid and the
 continuous-motion correction of dechirped FMCW data.
 
-Continuous motion (Meta et al. 2007, §II-B; sar-processing-notes §3)
+Continuous motion (Meta et al. 2007, §II-B; docs/design.md §5.6)
 --------------------------------------------------------------------
 An FMCW radar keeps moving while it sweeps, so the sample at fast time ``t`` of the sweep whose
 middle is at slow time ``eta`` sees the platform at ``eta + t``: ``s(t, eta) = g(t, eta + t)``

@@ -1,6 +1,6 @@
 """Range-Doppler algorithm (RDA) for dechirped FMCW data (Meta, Hoogeboom & Ligthart 2007).
 
-Steps (sar-processing-notes §3), after the common front end of :mod:`mitsar.focus.spectral`
+Steps (docs/design.md §5.6), after the common front end of :mod:`mitsar.focus.spectral`
 (RVP removal, azimuth FFT, continuous-motion correction ``H_cm``, azimuth weighting):
 
 1. secondary range compression at the reference range (the bulk of the range-azimuth

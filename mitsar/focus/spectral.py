@@ -1,6 +1,6 @@
 """Shared machinery of the frequency-domain focusing algorithms (RDA, WDA, FSA).
 
-Signal model (sar-processing-notes §3, DESIGN §4)
+Signal model (docs/design.md §5.6, docs/design.md §4)
 -------------------------------------------------
 After residual-video-phase removal, dechirped FMCW samples are samples of the scene's frequency
 response: sample ``n`` of a sweep is at the RF frequency ``f_c + K t_n`` (two-way wavenumber

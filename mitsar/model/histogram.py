@@ -1,8 +1,9 @@
-"""Range histograms of the ray tracer and their synthesis into raw sweeps (DESIGN §5.5).
+"""Range histograms of the ray tracer and their synthesis into raw sweeps (docs/design.md §5.5).
 
 A contribution with two-way delay ``tau_0`` at mid-sweep, delay rate ``dtau/dt`` and amplitude
 ``a`` is, to first order in fast time, a tone at the beat frequency ``f = K tau_0 + f_c dtau/dt``
-(:func:`mitsar.model.signal.apparent_beat_frequency`) with phase ``2 pi (f_c tau_0 - K tau_0^2 / 2)``.
+(:func:`mitsar.model.signal.apparent_beat_frequency`) with phase
+``2 pi (f_c tau_0 - K tau_0^2 / 2)``.
 The tracer deposits ``a exp{j 2 pi (f_c tau_0 - K tau_0^2 / 2)}`` at the *apparent range*
 ``c f / (2K)`` into a complex histogram whose bins are ``1 / bins_per_cell`` of a range cell,
 splitting each deposit linearly between its two neighbouring bins. One inverse FFT per sweep,
@@ -34,7 +35,8 @@ from mitsar.errors import ParameterError
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
 
 DEFAULT_BINS_PER_CELL = 16
-"""Histogram bins per range cell (DESIGN §5.5: -54 dB synthesis error with linear splitting)."""
+"""Histogram bins per range cell (docs/design.md §5.5: -54 dB synthesis error with linear
+splitting)."""
 
 
 # --- the bin grid ---------------------------------------------------------------------------
@@ -106,7 +108,7 @@ def grid_of(ranges: ArrayLike, radar: Radar) -> tuple[int, int, int]:
 # --- what one contribution deposits (ops-agnostic formulas) ------------------------------------
 
 def apparent_range(slant_range: Any, range_rate: Any, radar: Radar) -> Any:
-    """Apparent range ``c f / (2K)`` of an echo [m] (DESIGN §5.5).
+    """Apparent range ``c f / (2K)`` of an echo [m] (docs/design.md §5.5).
 
     With ``tau_0 = 2R/c`` and ``dtau/dt = 2 dR/dt / c`` the beat frequency
     ``f = K tau_0 + f_c dtau/dt`` (:func:`mitsar.model.signal.apparent_beat_frequency`) maps to
@@ -118,17 +120,29 @@ def apparent_range(slant_range: Any, range_rate: Any, radar: Radar) -> Any:
         One-way range at mid-sweep [m] (monostatic; for a bistatic path, half the path length).
     range_rate : array_like
         Its time derivative [m/s] (positive receding).
+    radar : Radar
+        Or any object with ``carrier_frequency`` and ``chirp_rate`` (a kernel's constants).
     """
     return slant_range + (radar.carrier_frequency / radar.chirp_rate) * range_rate
 
 
-def deposit_cycles(delay: Any, radar: Radar) -> Any:
+def deposit_cycles(delay: Any, radar: Radar, rvp: Any = 1.0) -> Any:
     """Phase of a deposit in cycles, ``f_c tau_0 - K tau_0^2 / 2`` (float64!).
 
     :func:`mitsar.model.signal.dechirped_phase_cycles` at ``t = 0``; plain arithmetic so that a
     Dr.Jit ``Float64`` works too. Wrap with ``x - floor(x)`` before multiplying by 2 pi.
+
+    Parameters
+    ----------
+    delay : array_like
+        Two-way delay at mid-sweep tau_0 [s].
+    radar : Radar
+        Or any object with ``carrier_frequency`` [Hz] and ``chirp_rate`` [Hz/s] (a kernel passes
+        its packed constants).
+    rvp : float or array_like
+        1 keeps the residual video phase ``-K tau_0^2 / 2``, 0 drops it (paper eq. 1).
     """
-    return radar.carrier_frequency * delay - 0.5 * radar.chirp_rate * delay * delay
+    return radar.carrier_frequency * delay - rvp * (0.5 * radar.chirp_rate) * delay * delay
 
 
 def split_weights(position: Any, floor: Any = np.floor) -> tuple[Any, Any, Any]:
@@ -197,7 +211,7 @@ def deposit(histogram: NDArray, index: ArrayLike | tuple, value: ArrayLike,
 # --- synthesis ----------------------------------------------------------------------------------
 
 def histogram_to_raw(histogram: ArrayLike, bin_ranges: ArrayLike, radar: Radar) -> NDArray:
-    """Raw dechirped sweeps from range histograms: one inverse FFT per sweep (DESIGN §5.5).
+    """Raw dechirped sweeps from range histograms: one inverse FFT per sweep (docs/design.md §5.5).
 
     ``s(t_n) = sum_j H_j exp(j 2 pi f_j t_n)`` with ``f_j = k_j df``, ``t_n = -T/2 + n/f_s``:
     each bin is multiplied by ``exp(-j pi f_j T)`` (centred time origin), placed at DFT index

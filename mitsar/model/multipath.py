@@ -1,4 +1,4 @@
-"""Multipath by shooting and bouncing rays: the pure formulas (DESIGN §5.4 mechanism 2).
+"""Multipath by shooting and bouncing rays: the pure formulas (docs/design.md §5.4 mechanism 2).
 
 The ``radar`` integrator (``mitsar/plugins/radar.py``) traces a fixed set of rays per sweep and
 evaluates, in Dr.Jit, the formulas written here in NumPy; the tests call these functions directly
@@ -43,6 +43,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from mitsar.errors import ParameterError
+from mitsar.model.ops import NUMPY_OPS
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
 
 __all__ = [
@@ -299,17 +300,18 @@ def launch_coordinates(receiver: ArrayLike, image: ArrayLike, frame: ArrayLike
     return np.einsum("...ji,...j->...i", np.asarray(frame, dtype=float), w)
 
 
-def capture_weight(offset: Any, spacing: Any, kind: str = "tent") -> Any:
+def capture_weight(offset: Any, spacing: Any, kind: str = "tent", ops: Any = NUMPY_OPS) -> Any:
     """Weight of a ray whose launch coordinate is ``offset`` away from the receiver's.
 
     ``tent``: ``max(0, 1 - |offset| / spacing)``; ``box``: 1 for ``-spacing/2 <= offset <
     spacing/2``. Both are partitions of unity on a regular grid. Apply per axis and multiply.
+    Generic over ``ops`` (:mod:`mitsar.model.ops`): the multipath kernel calls it on Dr.Jit arrays.
     """
-    x = np.asarray(offset, dtype=float) / spacing
+    x = (np.asarray(offset, dtype=float) if ops is NUMPY_OPS else offset) / spacing
     if kind == "tent":
-        return np.maximum(0.0, 1.0 - np.abs(x))
+        return ops.maximum(0.0, 1.0 - abs(x))
     if kind == "box":
-        return ((x >= -0.5) & (x < 0.5)).astype(float)
+        return ops.where((x >= -0.5) & (x < 0.5), 1.0, 0.0)
     raise ParameterError("capture_weight", "kind", f"one of {list(CAPTURE_KINDS)}", kind)
 
 

@@ -3,7 +3,7 @@
 Used by the analytic simulator (exact per-sample delay) and by the histogram synthesis of the
 ray tracer, so both producers of raw data share one formula.
 
-Convention (``docs/conventions.md``, DESIGN §4): transmit phase ``2 pi (f_c t + K t^2 / 2)``
+Convention (``docs/conventions.md``, docs/design.md §4): transmit phase ``2 pi (f_c t + K t^2 / 2)``
 over the sweep, fast time ``t`` centred on the sweep, dechirp ``s = s_tx conj(s_rx)``. An echo
 with two-way delay ``tau`` then gives
 
@@ -74,7 +74,7 @@ def radar_equation_amplitude(radar: Radar, rcs: ArrayLike, transmit_range: Array
     """Echo amplitude from the radar equation [sqrt(W)].
 
     ``a = sqrt( P_T G_T G_R lambda^2 sigma / ((4 pi)^3 R_t^2 R_r^2) )`` with
-    ``G_T G_R = G^2 * two_way_pattern`` (DESIGN §4).
+    ``G_T G_R = G^2 * two_way_pattern`` (docs/design.md §4).
 
     Parameters
     ----------
@@ -113,7 +113,7 @@ def beat_frequency(delay: Any, delay_rate: Any, chirp_rate: Any, carrier_frequen
 
 
 def apparent_beat_frequency(delay: ArrayLike, delay_rate: ArrayLike, radar: Radar) -> NDArray:
-    """Beat frequency of a moving echo to first order in fast time [Hz] (DESIGN §5.5).
+    """Beat frequency of a moving echo to first order in fast time [Hz] (docs/design.md §5.5).
 
     ``f = K tau_0 + f_c dtau/dt`` (:func:`beat_frequency`): with the Doppler frequency
     ``f_D = -f_c dtau/dt`` the beat frequency moves by ``-f_D``, which reads as a range shift of

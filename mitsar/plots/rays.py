@@ -9,18 +9,13 @@
 - :func:`echo_profiles` / :func:`figure_echoes`: echoes after the range FFT for backscatter only
   (order 0) and the difference that the reflections make (Figs. 10a-b, 11a-b).
 
-``python -m mitsar.plots.rays EXPERIMENT.toml -o DIR`` traces an experiment with a scene and
-writes these figures and a ``summary.json`` (``examples/case1_2d.toml``, ``case2_2d.toml``,
-``dihedral_3d.toml``, ``trihedral_3d.toml``).
+``mitsar rays EXPERIMENT.toml -o DIR`` (:func:`mitsar.experiment.rays.run_rays`) traces an
+experiment with a scene and writes these figures and a ``summary.json``.
 """
 
 from __future__ import annotations
 
-import argparse
-import json
-import sys
 from collections.abc import Sequence
-from pathlib import Path
 from typing import Any
 
 import matplotlib.pyplot as plt
@@ -29,15 +24,11 @@ import xarray as xr
 from matplotlib.patches import Rectangle
 from numpy.typing import NDArray
 
-from mitsar.errors import ParameterError
-from mitsar.experiment.loading import load_experiment
 from mitsar.focus.compression import range_compress
-from mitsar.io import write_json
-from mitsar.plots.products import save_figure  # sets the Agg backend
-from mitsar.raw.traced import histogram_to_raw_product, trace, trace_paths
+from mitsar.raw.traced import histogram_to_raw_product
 
 __all__ = ["beam_marks", "echo_profiles", "figure_echoes", "figure_ray_geometry_2d",
-           "plane_axes", "plot_echoes", "plot_rays_2d", "plot_rays_3d", "run_figures"]
+           "plane_axes", "plot_echoes", "plot_rays_2d", "plot_rays_3d"]
 
 ORDER_COLOURS = ("0.35", "tab:blue", "tab:red", "tab:green", "tab:purple", "tab:orange",
                  "tab:brown", "tab:pink")
@@ -291,100 +282,3 @@ def figure_echoes(histogram: xr.Dataset, marks: dict[str, float] | None = None,
     bottom.set_title("(b) (backscatter + reflections) − backscatter")
     fig.tight_layout()
     return fig
-
-
-# --------------------------------------------------------------------------------------------
-# Runner: python -m mitsar.plots.rays EXPERIMENT.toml -o DIR
-# --------------------------------------------------------------------------------------------
-
-def run_figures(experiment_path: str | Path, out: str | Path, path_rays: int | None = None,
-                sweep: int = 0, overwrite: bool = False) -> dict[str, Any]:
-    """Trace an experiment with a scene and write the ray and echo figures and a summary.
-
-    Parameters
-    ----------
-    experiment_path : path-like
-        A TOML experiment with a ``scene`` and multipath options in ``[simulation]``.
-    out : path-like
-        Output folder (created).
-    path_rays : int, optional
-        Rays in the path log (2D default: the whole fan; 3D: 300).
-    sweep : int
-        The sweep of the echo profiles and of the path log.
-
-    Returns
-    -------
-    dict
-        The summary (also written to ``summary.json``): NR/CS/FR, echo peaks per order, the
-        ratio of the reflections' peak to the backscatter peak, captures.
-    """
-    exp = load_experiment(experiment_path)
-    if exp.scene is None:
-        raise ParameterError(str(experiment_path), "scene", "a scene (XML file or canned name) "
-                             "to trace rays in", None)
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    options = exp.simulation
-    hist = trace(exp.radar, exp.trajectory, exp.look, exp.scene, seed=options.seed,
-                 density=options.scatterer_density, sweeps=[sweep], **options.multipath())
-    planar = options.plane_normal is not None
-    count = hist.attrs["rays_per_sweep"]
-    if path_rays is None:
-        path_rays = count if planar else min(count, 300)
-    every_ray = trace_paths(exp.radar, exp.trajectory, exp.look, exp.scene, sweep=sweep,
-                            rays=count, ray_count=options.rays, ray_cover=options.ray_cover,
-                            max_depth=options.max_depth, plane_normal=options.plane_normal)
-    paths = every_ray if path_rays >= count else every_ray.isel(
-        path=np.unique(np.round(np.linspace(0, count - 1, path_rays)).astype(int)))
-    marks = beam_marks(every_ray)
-    name = exp.name or Path(experiment_path).stem
-    figures = {}
-    fig = figure_echoes(hist, marks, title=name)
-    figures["echoes"] = save_figure(fig, out / "echoes.png", overwrite=overwrite, dpi=130)
-    if planar:
-        u, v, _ = plane_axes(paths)
-        ends = paths["end"].values[paths["hit"].values]
-        bounds = (ends @ u).min(), (ends @ u).max(), (ends @ v).min(), (ends @ v).max()
-        fig = figure_ray_geometry_2d(paths, bounds=bounds, title=name)
-        figures["rays"] = save_figure(fig, out / "rays_2d.png", overwrite=overwrite, dpi=130)
-    else:
-        ax = plot_rays_3d(paths, every=max(1, len(paths["path"]) // 150))
-        ax.set_title(f"ray geometry: {name}")
-        figures["rays"] = save_figure(ax.figure, out / "rays_3d.png", overwrite=overwrite,
-                                      dpi=130)
-    profiles = echo_profiles(hist, 0)
-    back_peak = float(np.abs(profiles["backscatter"]).max())
-    reflections = profiles["total"] - profiles["backscatter"]
-    refl_peak = float(np.abs(reflections).max())
-    orders = hist["histogram"].values[0]
-    summary = {
-        "experiment": str(experiment_path), "marks_m": marks,
-        "captures": int(hist.attrs["traced_captures"]),
-        "captured_rays_in_log": int((every_ray["captured"].values.sum(axis=1) > 0).sum()),
-        "order_power_w": [float(abs(orders[o].sum()) ** 2) for o in range(orders.shape[0])],
-        "backscatter_peak": back_peak, "reflections_peak": refl_peak,
-        "reflections_over_backscatter_amplitude": refl_peak / back_peak if back_peak else None,
-        "reflections_peak_range_m": float(profiles["range"][np.argmax(np.abs(reflections))])
-        if refl_peak > 0 else None,
-        "figures": {k: str(v) for k, v in figures.items()},
-    }
-    write_json(summary, out / "summary.json", overwrite=overwrite)
-    return summary
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m mitsar.plots.rays",
-                                     description="ray geometry and echo figures of a scene "
-                                                 "experiment (paper Figs. 6, 10, 11)")
-    parser.add_argument("experiment")
-    parser.add_argument("-o", "--output", required=True, help="output folder")
-    parser.add_argument("--rays", type=int, default=None, help="rays in the path log")
-    parser.add_argument("--sweep", type=int, default=0)
-    args = parser.parse_args(argv)
-    summary = run_figures(args.experiment, args.output, args.rays, args.sweep, overwrite=True)
-    print(json.dumps(summary, indent=2))
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -1,21 +1,22 @@
-"""Mitsuba plugins of mitsar, written in Python on Dr.Jit (installed as ``mitsar.plugins``).
+"""Mitsuba plugins of mitsar, written in Python on Dr.Jit, in Mitsuba's own vocabulary.
 
-=============== ========== ================================================================
-module          kind       XML type name
-=============== ========== ================================================================
-``doublelobe``  BSDF       ``doublelobe``: double-lobe radar material (paper eqs. 8-11)
-``pointtarget`` BSDF       ``pointtarget``: marks a small shape as one ideal point scatterer
-``radar``       integrator ``radar`` (optional module, registered when present)
-=============== ========== ================================================================
+===================================== ========== ==============================================
+module                                kind       XML type name
+===================================== ========== ==============================================
+``bsdfs.doublelobe``                  BSDF       ``doublelobe``: radar material (paper eqs. 8-11)
+``bsdfs.pointtarget``                 BSDF       ``pointtarget``: a small shape as one ideal
+                                                 point scatterer
+``integrators.radar`` (by stage)      integrator ``radar``: range histograms of an acquisition
+===================================== ========== ==============================================
 
-Each module exposes ``register()``, which registers its plugin(s) for the *active* Mitsuba
-variant (Python plugin classes are tied to the variant they were created in). Call
-:func:`mitsar.scene.register_plugins` rather than these directly: it picks and checks the variant,
-registers every module listed in :data:`PLUGIN_MODULES` that exists, and registers again when the
-variant changes.
+Each module of :data:`PLUGIN_MODULES` exposes ``register()``, which registers its plugin for the
+*active* Mitsuba variant (Python plugin classes are tied to the variant they were created in;
+:class:`PerVariant` makes one class per variant). Call :func:`mitsar.scene.register_plugins`
+rather than these directly: it picks and checks the variant and registers again when the variant
+changes. ``ops`` holds Dr.Jit's side of the ``ops`` namespace (:mod:`mitsar.model.ops`).
 
-This module also holds the small helpers the plugins share to read and check their XML
-properties; it does not import Mitsuba.
+This module holds the small helpers the plugins share to read and check their XML properties;
+it does not import Mitsuba.
 """
 
 from __future__ import annotations
@@ -25,8 +26,9 @@ from typing import Any
 
 from mitsar.errors import ParameterError
 
-PLUGIN_MODULES: tuple[str, ...] = ("bsdfs.doublelobe", "bsdfs.pointtarget", "integrators.radar")
-"""Plugin modules, in registration order; ``radar`` is optional."""
+PLUGIN_MODULES: tuple[str, ...] = ("bsdfs.doublelobe", "bsdfs.pointtarget",
+                                   "integrators.radar.integrator")
+"""Plugin modules (below ``mitsar.plugins``), in registration order."""
 
 
 def plugin_where(plugin: str, props: Any) -> str:

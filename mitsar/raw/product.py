@@ -1,7 +1,7 @@
 """The raw-data product: dechirped FMCW samples with their geometry, as an xarray Dataset.
 
 Every producer of raw data (analytic simulator, ray tracer, real recordings) makes this one
-product, and every processing step consumes it (DESIGN §2).
+product, and every processing step consumes it (docs/design.md §2).
 
 Layout
 ------

@@ -10,7 +10,7 @@ a point scatterer at range ``R_k`` from the antenna of row k the samples are
 
 where ``R_ref,k`` is the range to a reference point the data were motion-compensated to (0 when
 they were not). This is exactly a dechirped FMCW sweep after residual-video-phase removal, with
-sample ``n`` at instantaneous frequency ``f_n`` (sar-processing-notes §3), so mitsar describes
+sample ``n`` at instantaneous frequency ``f_n`` (docs/design.md §5.6), so mitsar describes
 it with an *equivalent* FMCW radar: ``N`` samples of step ``df`` form a sweep of bandwidth
 ``B = N df`` centred on ``f_c = f_0 + B/2`` (the frequency at the sweep-centred time origin),
 sampled at ``f_s = N / T`` with ``K = B / T`` for a nominal sweep time ``T``. The range profile of

@@ -1,4 +1,4 @@
-"""Ray-traced acquisitions: scene -> range histograms -> raw (DESIGN §2, §5.4, §5.5).
+"""Ray-traced acquisitions: scene -> range histograms -> raw (docs/design.md §2, §5.4, §5.5).
 
 :func:`trace` runs the Mitsuba ``radar`` integrator (``mitsar/plugins/radar.py``) over every
 sweep of an acquisition -- direct backscatter and, with ``max_depth > 1``, multipath by shooting
@@ -45,8 +45,17 @@ from mitsar.model.geometry.trajectory import Trajectory
 from mitsar.model.radar import Radar
 from mitsar.model.signal import sweep_count
 from mitsar.model.targets import Background, PointTarget
+from mitsar.plugins.integrators.radar import make_setup
 from mitsar.raw.analytic import simulate_point_targets
 from mitsar.raw.product import look_of, make_raw_product, radar_of, sweep_geometry
+from mitsar.scene import (
+    ScattererSet,
+    collect_scatterers,
+    empty_scatterers,
+    load_scene,
+    range_limits,
+    register_plugins,
+)
 from mitsar.version import __version__
 
 __all__ = ["histogram_to_raw_product", "simulate_scene", "trace", "trace_paths"]
@@ -55,6 +64,16 @@ __all__ = ["histogram_to_raw_product", "simulate_scene", "trace", "trace_paths"]
 # --------------------------------------------------------------------------------------------
 # Set-up shared by trace and simulate_scene
 # --------------------------------------------------------------------------------------------
+
+def _scene_scatterers(integrator: Any, scene: Any, density: float, seed: int) -> ScattererSet:
+    """The scene's scatterers for ``density`` and ``seed``, kept on the scene's integrator so
+    that repeated traces of one scene reuse the draw and its device arrays."""
+    key = (id(scene), float(density), int(seed))
+    if integrator.cache.get("key") != key:
+        integrator.cache.clear()
+        integrator.cache.update(key=key, scatterers=collect_scatterers(scene, density, seed))
+    return integrator.cache["scatterers"]
+
 
 class _Run:
     """Everything one traced acquisition needs, resolved and validated."""
@@ -65,8 +84,6 @@ class _Run:
                  scene_params: dict | None, multipath: dict | None = None,
                  receiver_offset: Any = None, receiver_look: Look | None = None,
                  backscatter: bool = True) -> None:
-        from mitsar.scene import load_scene, register_plugins
-
         if not isinstance(radar, Radar):
             raise ParameterError(where, "radar", "a mitsar.Radar", type(radar))
         if not isinstance(trajectory, Trajectory):
@@ -80,9 +97,7 @@ class _Run:
                                  f">= one sweep ({radar.sweep_duration:g} s)", trajectory.duration)
         self.sweeps = _select_sweeps(where, sweeps, total)
         register_plugins()
-        import mitsuba as mi
-
-        from mitsar.plugins.integrators.radar import empty_scatterers, make_setup, range_limits
+        import mitsuba as mi  # lazy: a variant is set by register_plugins just above
 
         self.scene_name = scene if isinstance(scene, str | os.PathLike) else "<mitsuba.Scene>"
         self.scene = load_scene(scene, **(scene_params or {}))
@@ -105,9 +120,8 @@ class _Run:
                                  "backscatter is traced monostatically only)", backscatter)
         self.receiver_look = receiver_look
         if self.backscatter:
-            self.scatterers = self.integrator.scatterers(self.scene,
-                                                         self.config.density(radar),
-                                                         self.config.seed)
+            self.scatterers = _scene_scatterers(self.integrator, self.scene,
+                                                self.config.density(radar), self.config.seed)
         else:  # multipath only: no surface scatterers to sample
             self.scatterers = empty_scatterers(self.config.density(radar), self.config.seed)
         low, high = range_limits(self.scatterers, self.geometry["position"],
@@ -399,8 +413,6 @@ def trace_paths(radar: Radar, trajectory: Trajectory, look: Look, scene: Any, *,
 
 
 def _setup_for(run: _Run, config: Any) -> Any:
-    from mitsar.plugins.integrators.radar import make_setup
-
     rx_frames = (None if run.receiver_look is None
                  else antenna_frame(run.receiver_look, *run.geometry["attitude"].T))
     return make_setup(run.radar, run.frames, config, run.setup.receiver_offset, rx_frames)

@@ -4,12 +4,20 @@
 - :mod:`mitsar.scene.loading`: :func:`load_scene` (a path or a canned scene name).
 - :mod:`mitsar.scene.surfaces`: :func:`scene_surfaces`, :func:`scene_point_targets`,
   :func:`sample_surface_scatterers` and the regular grid :func:`sample_surface_points`.
+- :mod:`mitsar.scene.scatterers`: :class:`ScattererSet`, :func:`collect_scatterers` (what the
+  radar integrator traces for direct backscatter).
 - :mod:`mitsar.scene.meshes`: :func:`box_mesh`, :func:`write_ply`.
 - :mod:`mitsar.scene.canned`: the bundled XML scenes.
 """
 
 from mitsar.scene.loading import load_scene
 from mitsar.scene.meshes import box_mesh, write_ply
+from mitsar.scene.scatterers import (
+    ScattererSet,
+    collect_scatterers,
+    empty_scatterers,
+    range_limits,
+)
 from mitsar.scene.surfaces import (
     ScenePointTarget,
     SceneSurface,
@@ -29,7 +37,8 @@ from mitsar.scene.variant import (
     register_plugins,
 )
 
-__all__ = ["DEFAULT_VARIANT", "GPU_VARIANT", "SUPPORTED_VARIANTS", "ScenePointTarget",
-           "SceneSurface", "SurfaceSamples", "SurfaceScatterers", "box_mesh", "ensure_variant",
-           "import_mitsuba", "load_scene", "register_plugins", "sample_surface_points",
+__all__ = ["DEFAULT_VARIANT", "GPU_VARIANT", "SUPPORTED_VARIANTS", "ScattererSet",
+           "ScenePointTarget", "SceneSurface", "SurfaceSamples", "SurfaceScatterers", "box_mesh",
+           "collect_scatterers", "empty_scatterers", "ensure_variant", "import_mitsuba",
+           "load_scene", "range_limits", "register_plugins", "sample_surface_points",
            "sample_surface_scatterers", "scene_point_targets", "scene_surfaces", "write_ply"]

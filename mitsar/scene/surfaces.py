@@ -126,7 +126,7 @@ def scene_point_targets(scene: Any) -> list[ScenePointTarget]:
 
 @dataclass(frozen=True)
 class SurfaceScatterers:
-    """A fixed set of surface scatterers (DESIGN §5.4, mechanism 1).
+    """A fixed set of surface scatterers (docs/design.md §5.4, mechanism 1).
 
     Attributes
     ----------
@@ -221,7 +221,7 @@ def _stratified_unit_square(n: int, aspect: float, rng: np.random.Generator) -> 
 
 def sample_surface_scatterers(scene: Any, density_per_m2: float,
                               seed: int = 0) -> SurfaceScatterers:
-    """Sample a fixed set of scatterers on every radar surface of a scene (DESIGN §5.4).
+    """Sample a fixed set of scatterers on every radar surface of a scene (docs/design.md §5.4).
 
     Each shape with a radar material (:func:`scene_surfaces`) gets ``round(density · area)``
     scatterers from ``shape.sample_position`` fed with a jittered grid over its parameter domain

@@ -9,11 +9,11 @@ later variant change (Python plugin classes are tied to the variant they were cr
 from __future__ import annotations
 
 import importlib
-import importlib.util
 from typing import Any
 
 from mitsar import backend
 from mitsar.errors import ParameterError
+from mitsar.plugins import PLUGIN_MODULES
 
 __all__ = ["DEFAULT_VARIANT", "GPU_VARIANT", "SUPPORTED_VARIANTS", "ensure_variant",
            "import_mitsuba", "register_plugins"]
@@ -88,16 +88,8 @@ _callback_installed = False
 
 
 def _plugin_modules() -> list[Any]:
-    """Import the plugin modules that exist (``radar`` is optional)."""
-    from mitsar.plugins import PLUGIN_MODULES
-
-    modules = []
-    for name in PLUGIN_MODULES:
-        full = f"mitsar.plugins.{name}"
-        if importlib.util.find_spec(full) is None:
-            continue
-        modules.append(importlib.import_module(full))
-    return modules
+    """Import the plugin modules (they need the variant set: Mitsuba imports at their top)."""
+    return [importlib.import_module(f"mitsar.plugins.{name}") for name in PLUGIN_MODULES]
 
 
 def _register_current() -> None:
@@ -105,9 +97,7 @@ def _register_current() -> None:
     import mitsuba as mi  # lazy: see ensure_variant
 
     for module in _plugin_modules():
-        register = getattr(module, "register", None)
-        if register is not None:
-            register()
+        module.register()
     _registered_variant = mi.variant()
 
 

@@ -6,7 +6,7 @@ the specular lobe (mirror symmetry) and is computed in closed form for integer �
 accurate table in θ_i otherwise (derivation: ``docs/materials.md``).
 
 Every formula below that a Dr.Jit kernel needs is written once, generic over an ``ops`` namespace
-(:data:`NUMPY_OPS` here, ``DRJIT_OPS`` in ``mitsar.plugins.bsdfs.doublelobe``), so that the NumPy
+(:data:`mitsar.model.ops.NUMPY_OPS`, ``mitsar.plugins.ops.DRJIT_OPS``), so that the NumPy
 reference and the Mitsuba plugin evaluate the same expressions.
 """
 
@@ -14,12 +14,12 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Callable
-from typing import Any, NamedTuple
+from typing import Any
 
 import numpy as np
 
 from mitsar.errors import ParameterError
+from mitsar.model.ops import NUMPY_OPS, ArrayOps
 
 __all__ = [
     "ALPHA_MAX",
@@ -36,6 +36,7 @@ __all__ = [
     "lobe_sample_cos_psi",
     "lobe_sampling_pdf",
     "lobe_shape",
+    "theta_table_cosines",
 ]
 
 ALPHA_MAX = 200.0
@@ -49,37 +50,6 @@ TABLE_SIZE = 1025
 
 _HALF_PI = 0.5 * math.pi
 _FOUR_PI = 4.0 * math.pi
-
-
-# --------------------------------------------------------------------------------------------
-# Array namespace shared by the NumPy reference and the Dr.Jit kernels
-# --------------------------------------------------------------------------------------------
-
-
-class ArrayOps(NamedTuple):
-    """The few array operations the generic formulas need, one field per operation.
-
-    :data:`NUMPY_OPS` fills it with NumPy; ``mitsar.plugins.bsdfs.doublelobe.DRJIT_OPS`` with the
-    Dr.Jit functions of the active variant, so each formula is written once for both.
-    """
-
-    sqrt: Callable[[Any], Any]
-    maximum: Callable[[Any, Any], Any]
-    minimum: Callable[[Any, Any], Any]
-    arccos: Callable[[Any], Any]
-    floor: Callable[[Any], Any]
-    where: Callable[[Any, Any, Any], Any]
-    gather: Callable[[Any, Any], Any]
-    """``gather(table, index)``: ``table[index]`` for a float array of integral values."""
-
-
-def _numpy_gather(table: np.ndarray, index: np.ndarray) -> np.ndarray:
-    return np.asarray(table)[np.asarray(index).astype(np.intp)]
-
-
-NUMPY_OPS = ArrayOps(sqrt=np.sqrt, maximum=np.maximum, minimum=np.minimum, arccos=np.arccos,
-                     floor=np.floor, where=np.where, gather=_numpy_gather)
-"""Array operations for NumPy inputs (the default ``ops`` of every generic formula)."""
 
 
 def _clip01(x: Any, ops: Any) -> Any:
@@ -247,6 +217,16 @@ def lobe_integral_table(alpha: float, n: int = TABLE_SIZE) -> np.ndarray:
         Read-only array of shape ``(n,)`` [sr].
     """
     return _table_cached(float(alpha), int(n))
+
+
+def theta_table_cosines(n: int = TABLE_SIZE) -> np.ndarray:
+    """Incidence cosines of the nodes of a table uniform in θ_i ∈ [0, π/2] (last node exactly 0).
+
+    Every θ-table that :func:`interp_theta_table` reads is built on these nodes.
+    """
+    cos_theta = np.cos(np.linspace(0.0, _HALF_PI, int(n)))
+    cos_theta[-1] = 0.0
+    return cos_theta
 
 
 def interp_theta_table(values: Any, n: int, cos_theta_i: Any, ops: Any = NUMPY_OPS,

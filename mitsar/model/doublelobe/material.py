@@ -18,7 +18,13 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from mitsar.errors import ParameterError
-from mitsar.model.doublelobe.lobes import _HALF_PI, ALPHA_MAX, TABLE_SIZE, lobe_integral
+from mitsar.model.doublelobe.lobes import (
+    _FOUR_PI,
+    ALPHA_MAX,
+    TABLE_SIZE,
+    lobe_integral,
+    theta_table_cosines,
+)
 from mitsar.model.doublelobe.pattern import (
     backscatter_fraction_from_sionna,
     double_lobe_pattern,
@@ -35,6 +41,7 @@ __all__ = [
     "PRESETS",
     "PowerSplit",
     "SIGMA0_LAWS",
+    "bistatic_lobe_tables",
     "monostatic_sigma0_table",
     "preset_names",
 ]
@@ -43,7 +50,8 @@ SIGMA0_LAWS = ("constant", "lambert")
 """Angular laws of a given ``sigma0_db``: constant, or ``σ⁰(0) cos² θ_i`` (Lambert)."""
 
 LOBE_NORMALISATIONS = ("joint", "separate")
-"""``"joint"``: Degli-Esposti 2007 / DESIGN §5.3; ``"separate"``: Λ is the back-lobe power."""
+"""``"joint"``: Degli-Esposti 2007 / docs/design.md §5.3; ``"separate"``: Λ is the back-lobe
+power."""
 
 
 class PowerSplit(NamedTuple):
@@ -94,7 +102,7 @@ PRESETS: dict[str, dict[str, Any]] = {
 """Named parameter sets.
 
 - ``concrete_94ghz``: concrete walls at 94 GHz, paper §4.2 (-7.0 dB, -7.5 dB, Λ = 0.1); the paper
-  gives no lobe widths, α_B = 6 and α_F = 3 are DESIGN §5.3's choice. σ⁰ from the model
+  gives no lobe widths, α_B = 6 and α_F = 3 are docs/design.md §5.3's choice. σ⁰ from the model
   (monostatic ≈ -0.2 dB at 35°).
 - ``concrete_94ghz_paper``: the same with the paper's σ⁰ = -20 dB (constant) for the direct
   backscatter (§4.2); reflections and bistatic scattering still follow the lobes.
@@ -125,7 +133,7 @@ def _as_real(where: str, name: str, value: Any, expected: str) -> float:
 
 @dataclass(frozen=True)
 class DoubleLobe:
-    """Double-lobe radar material (paper eqs. 8-11, Degli-Esposti 2007, DESIGN §5.3).
+    """Double-lobe radar material (paper eqs. 8-11, Degli-Esposti 2007, docs/design.md §5.3).
 
     Parameters
     ----------
@@ -449,10 +457,43 @@ def monostatic_sigma0_table(materials: Sequence[DoubleLobe | None],
     numpy.ndarray
         Shape ``(len(materials), n)`` [m²/m²].
     """
-    cos_theta = np.cos(np.linspace(0.0, _HALF_PI, n))
-    cos_theta[-1] = 0.0
+    cos_theta = theta_table_cosines(n)
     out = np.zeros((len(materials), n))
     for row, material in enumerate(materials):
         if material is not None:
             out[row] = material.sigma0_monostatic(cos_theta)
     return out
+
+
+def bistatic_lobe_tables(materials: Sequence[DoubleLobe], n: int = TABLE_SIZE
+                         ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Stacked tables of the scaled lobe weights for a kernel's bistatic σ⁰ (paper eq. 11).
+
+    With these, ``σ⁰ = cos θ_i [W_B lobe(ψ_B)^α_B + W_F lobe(ψ_F)^α_F]`` is
+    :func:`~mitsar.model.doublelobe.pattern.double_lobe_pattern` with weights ``W = 4π Γ² S² w``
+    (:func:`~mitsar.model.doublelobe.pattern.sigma0_from_pattern` with the constant folded in).
+
+    Parameters
+    ----------
+    materials : sequence of DoubleLobe
+        One row per material (at least one row is returned: zeros when the sequence is empty).
+    n : int
+        Nodes per table, uniform in θ_i (:func:`theta_table_cosines`).
+
+    Returns
+    -------
+    w_b, w_f : numpy.ndarray, shape (rows, n)
+        ``4π Γ² S² w_B,F(θ_i)`` [1/sr].
+    alpha_b, alpha_f : numpy.ndarray, shape (rows,)
+        Lobe exponents (1 for the empty row).
+    """
+    rows = max(1, len(materials))
+    cos_theta = np.maximum(theta_table_cosines(n), 1e-6)
+    w_b, w_f = np.zeros((rows, n)), np.zeros((rows, n))
+    alpha_b, alpha_f = np.ones(rows), np.ones(rows)
+    for row, material in enumerate(materials):
+        weight_b, weight_f = material.weights(cos_theta)
+        w_b[row] = _FOUR_PI * material.scattered_fraction * weight_b
+        w_f[row] = _FOUR_PI * material.scattered_fraction * weight_f
+        alpha_b[row], alpha_f[row] = material.alpha_b, material.alpha_f
+    return w_b, w_f, alpha_b, alpha_f

@@ -13,13 +13,15 @@ pattern (paper eq. 11, normalised) is::
     f(k_i, k_s) = w_B ((1 + cos ψ_B)/2)^α_B + w_F ((1 + cos ψ_F)/2)^α_F      [1/sr]
 
 with ∫_hemisphere f dΩ = 1. With the default ``"joint"`` normalisation (Degli-Esposti 2007,
-DESIGN §5.3) ``w_B = Λ/N``, ``w_F = (1-Λ)/N``, ``N(θ_i) = Λ F_αB(θ_i) + (1-Λ) F_αF(θ_i)``, so Λ
+docs/design.md §5.3) ``w_B = Λ/N``, ``w_F = (1-Λ)/N``, ``N(θ_i) = Λ F_αB(θ_i) + (1-Λ) F_αF(θ_i)``,
+so Λ
 sets the relative *amplitude* of the lobes and the back lobe carries ``share_B = Λ F_αB / N`` of the
 scattered power; with ``"separate"`` normalisation ``w_B = Λ/F_αB`` and ``w_F = (1-Λ)/F_αF``, so
 the back lobe carries exactly Λ of it (the wording of paper §3.2). ``F_α`` is the lobe integral of
 :mod:`mitsar.model.doublelobe.lobes`.
 
-The bistatic scattering coefficient per unit area is ``σ⁰ = 4π Γ² S² cos θ_i f`` (DESIGN §5.3);
+The bistatic scattering coefficient per unit area is ``σ⁰ = 4π Γ² S² cos θ_i f`` (docs/design.md
+§5.3);
 monostatic ``k_s = -k_i``. Sionna RT's ``BackscatteringPattern`` weighs the lobes the other way
 round (``λ = 1 - Λ``).
 
@@ -105,7 +107,7 @@ def double_lobe_pattern(cos_psi_b: Any, cos_psi_f: Any, w_b: Any, w_f: Any,
 
 
 def sigma0_from_pattern(gamma2_s2: float, cos_theta_i: Any, pattern: Any) -> Any:
-    """Bistatic scattering coefficient ``σ⁰ = 4π Γ² S² cos θ_i f`` (DESIGN §5.3) [m²/m²].
+    """Bistatic scattering coefficient ``σ⁰ = 4π Γ² S² cos θ_i f`` (docs/design.md §5.3) [m²/m²].
 
     Parameters
     ----------

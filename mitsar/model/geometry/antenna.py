@@ -13,8 +13,12 @@ one-way at ``u = beta / 2``).
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+
+from mitsar.model.ops import NUMPY_OPS
 
 
 def direction_sines(directions: ArrayLike, frame: ArrayLike) -> tuple[NDArray, NDArray, NDArray]:
@@ -38,6 +42,26 @@ def direction_sines(directions: ArrayLike, frame: ArrayLike) -> tuple[NDArray, N
     return local[..., 0], local[..., 1], local[..., 2]
 
 
+def field_pattern(u_az: Any, u_el: Any, beamwidth_az: Any, beamwidth_el: Any,
+                  ops: Any = NUMPY_OPS) -> Any:
+    """One-way *field* pattern ``sinc(u_az / beta_az) sinc(u_el / beta_el)`` (Balanis).
+
+    Its square is the power pattern :func:`one_way_pattern`; the product of the transmit and
+    receive field patterns is the two-way amplitude factor. Generic over ``ops``
+    (:mod:`mitsar.model.ops`): the kernels of the radar integrator call it with Dr.Jit arrays.
+
+    Parameters
+    ----------
+    u_az, u_el : array_like
+        Direction sines along the azimuth and elevation axes [-].
+    beamwidth_az, beamwidth_el : float or array_like
+        Beamwidths lambda / D [rad].
+    ops : namespace
+        Array operations.
+    """
+    return ops.sinc(u_az / beamwidth_az) * ops.sinc(u_el / beamwidth_el)
+
+
 def one_way_pattern(u_az: ArrayLike, u_el: ArrayLike, beamwidth_az: float,
                     beamwidth_el: float, cos_boresight: ArrayLike | None = None) -> NDArray:
     """One-way power pattern of a uniform rectangular aperture (sinc^2 per axis).
@@ -56,8 +80,7 @@ def one_way_pattern(u_az: ArrayLike, u_el: ArrayLike, beamwidth_az: float,
     ndarray
         Power pattern, 1 on boresight.
     """
-    pattern = (np.sinc(np.asarray(u_az) / beamwidth_az) ** 2
-               * np.sinc(np.asarray(u_el) / beamwidth_el) ** 2)
+    pattern = field_pattern(np.asarray(u_az), np.asarray(u_el), beamwidth_az, beamwidth_el) ** 2
     if cos_boresight is not None:
         pattern = np.where(np.asarray(cos_boresight) > 0, pattern, 0.0)
     return pattern

@@ -1,1 +1,1 @@
-"""TODO"""
+"""Mitsuba BSDFs of mitsar: ``doublelobe`` (radar material) and ``pointtarget``."""

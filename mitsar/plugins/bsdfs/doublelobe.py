@@ -1,4 +1,5 @@
-"""Mitsuba BSDF ``doublelobe``: the double-lobe radar material (paper eqs. 8-11, DESIGN §5.3).
+"""Mitsuba BSDF ``doublelobe``: the double-lobe radar material (paper eqs. 8-11, docs/design.md
+§5.3).
 
 XML parameters (all optional; a ``preset`` gives the base values, explicit ones override it)::
 
@@ -23,7 +24,8 @@ Mitsuba semantics (two-sided; local frame, normal +z, ``wi`` towards the source)
 - component 2, ``GlossyReflection``: forward lobe around the mirror direction of ``wi``.
 
 ``eval`` returns ``Γ² S² f(wi, wo)`` (BSDF × cos θ_o), so that ∫ eval dω_o = Γ² S²; the
-bistatic scattering coefficient is ``σ⁰ = 4π cos θ_i · eval`` (DESIGN §5.3). ``sample`` picks a
+bistatic scattering coefficient is ``σ⁰ = 4π cos θ_i · eval`` (docs/design.md §5.3). ``sample``
+picks a
 component with probability proportional to its power (``R²``, ``S² share_B``, ``S² share_F``),
 draws a glossy direction from ``((1+cos ψ)/2)^α`` about the lobe axis (full sphere; directions
 below the surface are rejected with weight 0), and weights glossy samples with the one-sample MIS
@@ -31,9 +33,9 @@ estimate ``eval / pdf`` where ``pdf`` is the mixture density of both lobes; the 
 has weight ``Γ² R² / P_spec``. The expected weight is Γ² (checked in the tests).
 
 The integrator reads the material through the Python attributes of the plugin instance that
-``shape.bsdf()`` returns: ``material`` (a :class:`mitsar.model.doublelobe.DoubleLobe`) and the Dr.Jit
-methods :meth:`sigma0_monostatic`, :meth:`sigma0_monostatic_model` and :meth:`sigma0_bistatic`,
-which call the same generic formulas as the NumPy module.
+``shape.bsdf()`` returns: ``material`` (a :class:`mitsar.model.doublelobe.DoubleLobe`) and the
+Dr.Jit methods :meth:`sigma0_monostatic`, :meth:`sigma0_monostatic_model` and
+:meth:`sigma0_bistatic`, which call the same generic formulas as the NumPy module.
 """
 
 from __future__ import annotations
@@ -47,6 +49,7 @@ import mitsuba as mi
 from mitsar.model import doublelobe as dl
 from mitsar.model.doublelobe import DoubleLobe
 from mitsar.plugins import PerVariant, plugin_where, read_properties
+from mitsar.plugins.ops import DRJIT_OPS
 
 PLUGIN_NAME = "doublelobe"
 """XML type name."""
@@ -60,24 +63,6 @@ _TRAVERSED = ("transmission_loss_db", "reflection_reduction_db", "backscatter_fr
               "alpha_b", "alpha_f")
 
 
-class _DrJitOps:
-    """The array operations of :data:`mitsar.model.doublelobe.NUMPY_OPS`, for the active variant."""
-
-    sqrt = staticmethod(dr.sqrt)
-    maximum = staticmethod(dr.maximum)
-    minimum = staticmethod(dr.minimum)
-    arccos = staticmethod(dr.acos)
-    floor = staticmethod(dr.floor)
-    where = staticmethod(dr.select)
-
-    @staticmethod
-    def gather(table: Any, index: Any) -> Any:
-        """``table[index]`` for a float index array of integral values."""
-        return dr.gather(mi.Float, table, mi.UInt32(index))
-
-
-DRJIT_OPS = _DrJitOps()
-"""Array operations for Dr.Jit arrays of the active Mitsuba variant."""
 
 
 def _flip_to_front(wi: Any, wo: Any) -> tuple[Any, Any]:
@@ -259,18 +244,8 @@ def _make_class() -> type:
             return dr.select(c > 0.0, sigma0, 0.0)
 
         def sigma0_monostatic(self, cos_theta_i: Any) -> Any:
-            """σ⁰ of the direct backscatter: the given ``sigma0_db`` (with its law) or the model.
-
-            Parameters
-            ----------
-            cos_theta_i : mi.Float
-                Incidence cosine (either side) [-].
-
-            Returns
-            -------
-            mi.Float
-                σ⁰ [m²/m²].
-            """
+            """σ⁰ [m²/m²] of the direct backscatter at incidence cosine ``cos_theta_i`` (either
+            side): the given ``sigma0_db`` with its law, or :meth:`sigma0_monostatic_model`."""
             m = self.material
             if m.sigma0_db is None:
                 return self.sigma0_monostatic_model(cos_theta_i)

@@ -1,4 +1,5 @@
-"""Mitsuba BSDF ``pointtarget``: marks a small shape as one ideal point scatterer (DESIGN §5.4).
+"""Mitsuba BSDF ``pointtarget``: marks a small shape as one ideal point scatterer (docs/design.md
+§5.4).
 
 XML::
 

@@ -1,1 +1,1 @@
-"""TODO"""
+"""Mitsuba integrators of mitsar: ``radar`` (:mod:`mitsar.plugins.integrators.radar`)."""
