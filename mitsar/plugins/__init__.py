@@ -9,11 +9,12 @@ module                                kind       XML type name
 ``integrators.radar`` (by stage)      integrator ``radar``: range histograms of an acquisition
 ===================================== ========== ==============================================
 
-Each module of :data:`PLUGIN_MODULES` exposes ``register()``, which registers its plugin for the
-*active* Mitsuba variant (Python plugin classes are tied to the variant they were created in;
-:class:`PerVariant` makes one class per variant). Call :func:`mitsar.scene.register_plugins`
-rather than these directly: it picks and checks the variant and registers again when the variant
-changes. ``ops`` holds Dr.Jit's side of the ``ops`` namespace (:mod:`mitsar.model.ops`).
+Each plugin module (listed in :data:`mitsar.scene.variant.PLUGIN_MODULES`) exposes
+``register()``, which registers its plugin for the *active* Mitsuba variant (Python plugin
+classes are tied to the variant they were created in; :class:`PerVariant` makes one class per
+variant). Call :func:`mitsar.scene.register_plugins` rather than these directly: it picks and
+checks the variant and registers again when the variant changes. :mod:`mitsar.plugins.ops` holds
+Dr.Jit's side of the ``ops`` namespace (:mod:`mitsar.model.ops`).
 
 This module holds the small helpers the plugins share to read and check their XML properties;
 it does not import Mitsuba.
@@ -25,10 +26,6 @@ from collections.abc import Callable, Iterable
 from typing import Any
 
 from mitsar.errors import ParameterError
-
-PLUGIN_MODULES: tuple[str, ...] = ("bsdfs.doublelobe", "bsdfs.pointtarget",
-                                   "integrators.radar.integrator")
-"""Plugin modules (below ``mitsar.plugins``), in registration order."""
 
 
 def plugin_where(plugin: str, props: Any) -> str:

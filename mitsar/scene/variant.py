@@ -13,7 +13,6 @@ from typing import Any
 
 from mitsar import backend
 from mitsar.errors import ParameterError
-from mitsar.plugins import PLUGIN_MODULES
 
 __all__ = ["DEFAULT_VARIANT", "GPU_VARIANT", "SUPPORTED_VARIANTS", "ensure_variant",
            "import_mitsuba", "register_plugins"]
@@ -83,13 +82,19 @@ def ensure_variant(variant: str | None = None) -> str:
     return variant
 
 
+PLUGIN_MODULES: tuple[str, ...] = ("mitsar.plugins.bsdfs.doublelobe",
+                                   "mitsar.plugins.bsdfs.pointtarget",
+                                   "mitsar.plugins.integrators.radar.integrator")
+"""The plugin modules, in registration order. They are imported by name once a variant is set
+(Mitsuba's classes exist per variant), so the scene stage names them without importing them."""
+
 _registered_variant: str | None = None
 _callback_installed = False
 
 
 def _plugin_modules() -> list[Any]:
     """Import the plugin modules (they need the variant set: Mitsuba imports at their top)."""
-    return [importlib.import_module(f"mitsar.plugins.{name}") for name in PLUGIN_MODULES]
+    return [importlib.import_module(name) for name in PLUGIN_MODULES]
 
 
 def _register_current() -> None:
