@@ -11,6 +11,7 @@ from mitsar.focus.compression import range_compress
 from mitsar.focus.dispatch import focus
 from mitsar.io import load, save
 from mitsar.model.geometry.attitude import Look, boresight
+from mitsar.model.geometry.navigation import NavigationErrors, Vibration
 from mitsar.model.geometry.trajectory import Trajectory
 from mitsar.model.radar import Radar
 from mitsar.model.targets import Background, PointTarget
@@ -21,8 +22,9 @@ from mitsar.raw.traced import histogram_to_raw_product, simulate_scene, trace
 from mitsar.version import __version__
 
 __all__ = [
-    "Background", "Look", "MitsarError", "ParameterError", "PointTarget", "Radar", "Trajectory",
-    "__version__", "ambiguity", "boresight", "focus", "grid", "histogram_to_raw_product", "load",
-    "measure_impulse_response", "range_compress", "raw_from_arrays", "read_gotcha", "read_raw",
-    "save", "simulate_point_targets", "simulate_scene", "trace",
+    "Background", "Look", "MitsarError", "NavigationErrors", "ParameterError", "PointTarget",
+    "Radar", "Trajectory", "Vibration", "__version__", "ambiguity", "boresight", "focus", "grid",
+    "histogram_to_raw_product", "load", "measure_impulse_response", "range_compress",
+    "raw_from_arrays", "read_gotcha", "read_raw", "save", "simulate_point_targets",
+    "simulate_scene", "trace",
 ]

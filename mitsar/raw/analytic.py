@@ -23,6 +23,11 @@ from mitsar.backend import require_llvm
 from mitsar.errors import ParameterError
 from mitsar.model.geometry.antenna import two_way_pattern
 from mitsar.model.geometry.attitude import Look, antenna_frame
+from mitsar.model.geometry.navigation import (
+    NavigationErrors,
+    describe_navigation,
+    resolve_navigation,
+)
 from mitsar.model.geometry.trajectory import Trajectory
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
 from mitsar.model.signal import (
@@ -80,7 +85,9 @@ def simulate_point_targets(radar: Radar, trajectory: Trajectory, look: Look,
                            background: Background | None = None, seed: int = 0, *,
                            rvp: bool = True, normalized: bool = False, pattern: bool = True,
                            noise: bool = False, progress: bool = False, backend: str = "drjit",
-                           chunk_elements: int = 2**22) -> xr.Dataset:
+                           chunk_elements: int = 2**22,
+                           navigation: Trajectory | NavigationErrors | None = None
+                           ) -> xr.Dataset:
     """Simulate dechirped FMCW raw data of point targets and a fluctuating background.
 
     Parameters
@@ -108,6 +115,10 @@ def simulate_point_targets(radar: Radar, trajectory: Trajectory, look: Look,
     chunk_elements : int
         Bound on the lanes (Dr.Jit: sweeps x samples) or on sweeps x samples x scatterers
         (NumPy) evaluated at once (memory).
+    navigation : Trajectory or NavigationErrors, optional
+        What the navigation system records: ``trajectory`` is then the *true* track (echoes,
+        antenna pattern and attitude follow it), and the product's platform variables hold the
+        navigation track, with the true one under ``true_*`` (docs/navigation.md).
 
     Returns
     -------
@@ -141,6 +152,7 @@ def simulate_point_targets(radar: Radar, trajectory: Trajectory, look: Look,
                              f">= one sweep ({radar.sweep_duration:g} s)", trajectory.duration)
     rng = np.random.default_rng(seed)
     geometry = sweep_geometry(radar, trajectory, look, sweeps)
+    recorded = resolve_navigation("simulate_point_targets", trajectory, navigation)
 
     positions = np.array([t.position for t in targets], dtype=float).reshape(-1, 3)
     velocities = np.array([t.velocity for t in targets], dtype=float).reshape(-1, 3)
@@ -178,6 +190,7 @@ def simulate_point_targets(radar: Radar, trajectory: Trajectory, look: Look,
     config = {"targets": [{"position": list(t.position), "rcs": t.rcs,
                            "velocity": list(t.velocity)} for t in targets],
               "trajectory": trajectory.describe(),
+              "navigation": describe_navigation(navigation),
               "background": None if background is None else {
                   "center": list(background.center), "size": list(background.size),
                   "cell_rcs_db": background.cell_rcs_db,
@@ -185,11 +198,14 @@ def simulate_point_targets(radar: Radar, trajectory: Trajectory, look: Look,
                   "mode": background.mode, "axis_u": list(background.axis_u),
                   "axis_v": list(background.axis_v)}}
     product = make_raw_product(
-        samples, radar, look, geometry, rvp=rvp,
+        samples, radar, look, geometry if recorded is None
+        else sweep_geometry(radar, recorded, look, sweeps), rvp=rvp,
+        true_geometry=None if recorded is None else geometry,
         attrs={"seed": int(seed), "normalized": int(normalized), "pattern": int(pattern),
                "noise": int(noise), "simulator": "analytic point targets",
-               "trajectory_kind": trajectory.kind,
-               "trajectory_straight": int(trajectory.is_straight), "config": config,
+               "trajectory_kind": (trajectory if recorded is None else recorded).kind,
+               "trajectory_straight": int((trajectory if recorded is None
+                                           else recorded).is_straight), "config": config,
                **extra_attrs})
     product["target_position"] = (("target", "xyz"), np.array(
         [t.position for t in targets], dtype=float).reshape(-1, 3), {"units": "m"})

@@ -13,6 +13,10 @@ Layout
     Antenna phase centre [m], velocity [m/s] and boresight at mid-sweep.
 ``attitude`` (sweep, angle)
     Heading, pitch, roll [rad] at mid-sweep.
+``true_platform_position``, ``true_platform_velocity``, ``true_boresight``, ``true_attitude``
+    Only when the echoes were simulated on a true track that differs from the navigation track
+    (:class:`mitsar.NavigationErrors`): the ground truth. The variables above are then what the
+    navigation system recorded, as in a real recording; every focuser uses those.
 attributes
     ``radar_*`` parameters, ``look_off_nadir_deg``, ``look_squint_deg``, ``rvp`` (1 when the
     residual video phase is present), ``product = "raw"``, provenance (``mitsar_version``,
@@ -33,6 +37,15 @@ from mitsar.model.geometry.trajectory import Trajectory
 from mitsar.model.radar import Radar
 from mitsar.model.signal import fast_time, sweep_start_times
 from mitsar.version import __version__
+
+TRACK_VARIABLES = (
+    ("platform_position", "position", "xyz", "m"),
+    ("platform_velocity", "velocity", "xyz", "m/s"),
+    ("boresight", "boresight", "xyz", "1"),
+    ("attitude", "attitude", "angle", "rad"),
+)
+"""Per-sweep track variables: (name, :func:`sweep_geometry` key, second dim, units); the true
+track's carry the prefix ``true_``."""
 
 
 def sweep_geometry(radar: Radar, trajectory: Trajectory, look: Look,
@@ -58,7 +71,8 @@ def sweep_geometry(radar: Radar, trajectory: Trajectory, look: Look,
 
 
 def make_raw_product(samples: ArrayLike, radar: Radar, look: Look, geometry: dict,
-                     *, rvp: bool = True, attrs: dict[str, Any] | None = None) -> xr.Dataset:
+                     *, rvp: bool = True, attrs: dict[str, Any] | None = None,
+                     true_geometry: dict | None = None) -> xr.Dataset:
     """Assemble the raw product from samples and per-sweep geometry.
 
     Parameters
@@ -72,17 +86,13 @@ def make_raw_product(samples: ArrayLike, radar: Radar, look: Look, geometry: dic
         Whether the samples still hold the residual video phase.
     attrs : dict, optional
         Extra attributes (provenance: seed, config, ...).
+    true_geometry : dict, optional
+        The true track's :func:`sweep_geometry` when ``geometry`` is a navigation track.
     """
     samples = np.asarray(samples)
     sweeps = samples.shape[0]
     data = xr.Dataset(
-        {
-            "raw": (("sweep", "sample"), samples),
-            "platform_position": (("sweep", "xyz"), geometry["position"], {"units": "m"}),
-            "platform_velocity": (("sweep", "xyz"), geometry["velocity"], {"units": "m/s"}),
-            "boresight": (("sweep", "xyz"), geometry["boresight"], {"units": "1"}),
-            "attitude": (("sweep", "angle"), geometry["attitude"], {"units": "rad"}),
-        },
+        {"raw": (("sweep", "sample"), samples), **track_variables(geometry, true_geometry)},
         coords={
             "sweep": np.arange(sweeps),
             "sample": np.arange(samples.shape[1]),
@@ -102,6 +112,28 @@ def make_raw_product(samples: ArrayLike, radar: Radar, look: Look, geometry: dic
     for key, value in (attrs or {}).items():
         data.attrs[key] = json.dumps(value) if isinstance(value, dict | list) else value
     return data
+
+
+def track_variables(geometry: dict, true_geometry: dict | None = None) -> dict[str, tuple]:
+    """The per-sweep track variables of a product (raw or histogram) from
+    :func:`sweep_geometry` outputs: the recorded track, and the true one when they differ."""
+    out = {name: (("sweep", dims), geometry[key], {"units": units})
+           for name, key, dims, units in TRACK_VARIABLES}
+    if true_geometry is not None:
+        out.update({f"true_{name}": (("sweep", dims), true_geometry[key],
+                                     {"units": units, "long_name": "ground truth (true track)"})
+                    for name, key, dims, units in TRACK_VARIABLES})
+    return out
+
+
+def track_geometry(product: xr.Dataset, prefix: str = "") -> dict[str, np.ndarray] | None:
+    """The :func:`sweep_geometry` dict stored in a product (``prefix="true_"``: the true
+    track, None when the product has none)."""
+    if f"{prefix}platform_position" not in product.variables:
+        return None
+    out = {key: product[f"{prefix}{name}"].values for name, key, _, _ in TRACK_VARIABLES}
+    out["slow_time"] = product["slow_time"].values
+    return out
 
 
 def radar_of(product: xr.Dataset) -> Radar:

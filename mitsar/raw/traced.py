@@ -41,13 +41,25 @@ from numpy.typing import NDArray
 from mitsar.errors import ParameterError
 from mitsar.model import histogram as hg
 from mitsar.model.geometry.attitude import Look, antenna_frame
+from mitsar.model.geometry.navigation import (
+    NavigationErrors,
+    describe_navigation,
+    resolve_navigation,
+)
 from mitsar.model.geometry.trajectory import Trajectory
 from mitsar.model.radar import Radar
 from mitsar.model.signal import sweep_count
 from mitsar.model.targets import Background, PointTarget
 from mitsar.plugins.integrators.radar import make_setup
 from mitsar.raw.analytic import simulate_point_targets
-from mitsar.raw.product import look_of, make_raw_product, radar_of, sweep_geometry
+from mitsar.raw.product import (
+    look_of,
+    make_raw_product,
+    radar_of,
+    sweep_geometry,
+    track_geometry,
+    track_variables,
+)
 from mitsar.scene import (
     ScattererSet,
     collect_scatterers,
@@ -83,7 +95,8 @@ class _Run:
                  bins_per_cell: int | None, beam_cull: float | None,
                  scene_params: dict | None, multipath: dict | None = None,
                  receiver_offset: Any = None, receiver_look: Look | None = None,
-                 backscatter: bool = True) -> None:
+                 backscatter: bool = True,
+                 navigation: Trajectory | NavigationErrors | None = None) -> None:
         if not isinstance(radar, Radar):
             raise ParameterError(where, "radar", "a mitsar.Radar", type(radar))
         if not isinstance(trajectory, Trajectory):
@@ -108,6 +121,10 @@ class _Run:
         self.radar, self.trajectory, self.look = radar, trajectory, look
         self.total = total
         self.geometry = sweep_geometry(radar, trajectory, look, total)
+        self.navigation = navigation
+        self.recorded = resolve_navigation(where, trajectory, navigation)
+        self.recorded_geometry = (None if self.recorded is None
+                                  else sweep_geometry(radar, self.recorded, look, total))
         self.frames = antenna_frame(look, *self.geometry["attitude"].T)
         if receiver_look is not None and not isinstance(receiver_look, Look):
             raise ParameterError(where, "receiver_look", "None or a mitsar.Look", receiver_look)
@@ -152,12 +169,17 @@ class _Run:
                 "backscatter": int(self.backscatter),
                 "receiver_offset": [float(v) for v in self.setup.receiver_offset],
                 "rays_per_sweep": 0 if self.setup.rays is None else len(self.setup.rays),
-                "trajectory_kind": self.trajectory.kind,
-                "trajectory_straight": int(self.trajectory.is_straight),
-                "config": {"trajectory": self.trajectory.describe()}}
+                "trajectory_kind": (self.recorded or self.trajectory).kind,
+                "trajectory_straight": int((self.recorded or self.trajectory).is_straight),
+                "config": {"trajectory": self.trajectory.describe(),
+                           "navigation": describe_navigation(self.navigation)}}
 
-    def geometry_of(self, sweeps: NDArray) -> dict[str, NDArray]:
-        return {key: value[sweeps] for key, value in self.geometry.items()}
+    def geometry_of(self, sweeps: NDArray) -> tuple[dict[str, NDArray], dict | None]:
+        """(recorded, true) geometry of some sweeps; true is None without navigation errors."""
+        true = {key: value[sweeps] for key, value in self.geometry.items()}
+        if self.recorded_geometry is None:
+            return true, None
+        return {key: value[sweeps] for key, value in self.recorded_geometry.items()}, true
 
 
 def _multipath_limits(scene: Any, positions: NDArray, low: float, high: float, radar: Radar,
@@ -230,7 +252,8 @@ def trace(radar: Radar, trajectory: Trajectory, look: Look, scene: Any, *,
           ray_cover: float | None = None, capture: str | None = None,
           ghosts: bool | None = None, plane_normal: Any = None,
           slab_width: float | None = None, receiver_offset: Any = None,
-          receiver_look: Look | None = None, backscatter: bool = True) -> xr.Dataset:
+          receiver_look: Look | None = None, backscatter: bool = True,
+          navigation: Trajectory | NavigationErrors | None = None) -> xr.Dataset:
     """Ray-trace an acquisition of a Mitsuba scene into range histograms.
 
     Parameters
@@ -288,6 +311,9 @@ def trace(radar: Radar, trajectory: Trajectory, look: Look, scene: Any, *,
         Mounting of the bistatic receiving antenna (default: the transmitter's ``look``).
     backscatter : bool
         Trace the direct backscatter of surface scatterers and point targets (order 0).
+    navigation : Trajectory or NavigationErrors, optional
+        What the navigation system records (``trajectory`` is then the true track); see
+        :func:`mitsar.simulate_point_targets`.
 
     Returns
     -------
@@ -297,14 +323,13 @@ def trace(radar: Radar, trajectory: Trajectory, look: Look, scene: Any, *,
     run = _Run("trace", radar, trajectory, look, scene, density, seed, sweeps, chunk_lanes,
                bins_per_cell, beam_cull, scene_params,
                _multipath_options(max_depth, rays, ray_cover, capture, ghosts, plane_normal,
-                                  slab_width), receiver_offset, receiver_look, backscatter)
+                                  slab_width), receiver_offset, receiver_look, backscatter,
+               navigation)
     parts, indices = [], []
     for chosen, hist in run.chunks(rvp, normalized, progress):
         indices.append(chosen)
         parts.append(hist)
-    histogram = np.concatenate(parts, axis=0)
-    geometry = run.geometry_of(np.concatenate(indices))
-    return _histogram_product(histogram, run, geometry, np.concatenate(indices), rvp,
+    return _histogram_product(np.concatenate(parts, axis=0), run, np.concatenate(indices), rvp,
                               normalized)
 
 
@@ -418,16 +443,14 @@ def _setup_for(run: _Run, config: Any) -> Any:
     return make_setup(run.radar, run.frames, config, run.setup.receiver_offset, rx_frames)
 
 
-def _histogram_product(histogram: NDArray, run: _Run, geometry: dict, sweeps: NDArray,
+def _histogram_product(histogram: NDArray, run: _Run, sweeps: NDArray,
                        rvp: bool, normalized: bool) -> xr.Dataset:
+    geometry = run.geometry_of(sweeps)[0]
     data = xr.Dataset(
         {
             "histogram": (("sweep", "order", "bin"), histogram,
                           {"units": "sqrt(W)", "long_name": "complex range histogram"}),
-            "platform_position": (("sweep", "xyz"), geometry["position"], {"units": "m"}),
-            "platform_velocity": (("sweep", "xyz"), geometry["velocity"], {"units": "m/s"}),
-            "boresight": (("sweep", "xyz"), geometry["boresight"], {"units": "1"}),
-            "attitude": (("sweep", "angle"), geometry["attitude"], {"units": "rad"}),
+            **track_variables(*run.geometry_of(sweeps)),
         },
         coords={
             "sweep": sweeps,
@@ -483,11 +506,7 @@ def histogram_to_raw_product(histogram: xr.Dataset, orders: Any = None) -> xr.Da
     mask = _order_mask("histogram_to_raw_product", orders, histogram["order"].values)
     summed = histogram["histogram"].values[:, mask, :].sum(axis=1)
     samples = hg.histogram_to_raw(summed, histogram["apparent_range"].values, radar)
-    geometry = {"slow_time": histogram["slow_time"].values,
-                "position": histogram["platform_position"].values,
-                "velocity": histogram["platform_velocity"].values,
-                "attitude": histogram["attitude"].values,
-                "boresight": histogram["boresight"].values}
+
     attrs = {key: histogram.attrs[key] for key in (
         "seed", "normalized", "scatterer_count", "point_target_count", "scatterer_density",
         "bins_per_cell", "integrator", "scene", "trajectory_kind", "trajectory_straight",
@@ -496,8 +515,9 @@ def histogram_to_raw_product(histogram: xr.Dataset, orders: Any = None) -> xr.Da
                   if key.startswith("traced_")})
     attrs.update(simulator="ray tracing (radar integrator)",
                  orders=[int(o) for o in histogram["order"].values[mask]])
-    product = make_raw_product(samples, radar, look_of(histogram), geometry,
-                               rvp=bool(histogram.attrs.get("rvp", 1)), attrs=attrs)
+    product = make_raw_product(samples, radar, look_of(histogram), track_geometry(histogram),
+                               rvp=bool(histogram.attrs.get("rvp", 1)), attrs=attrs,
+                               true_geometry=track_geometry(histogram, "true_"))
     return product.assign_coords(sweep=histogram["sweep"].values)
 
 
@@ -510,7 +530,8 @@ def simulate_scene(radar: Radar, trajectory: Trajectory, look: Look, scene: Any,
                    progress: bool = False, max_depth: int | None = None,
                    rays: int | None = None, ray_cover: float | None = None,
                    capture: str | None = None, ghosts: bool | None = None,
-                   plane_normal: Any = None, slab_width: float | None = None) -> xr.Dataset:
+                   plane_normal: Any = None, slab_width: float | None = None,
+                   navigation: Trajectory | NavigationErrors | None = None) -> xr.Dataset:
     """Raw data of a Mitsuba scene: trace, synthesise (streaming), add analytic targets.
 
     Histograms are turned into raw sweeps chunk by chunk, so memory stays bounded by the chunk
@@ -530,7 +551,7 @@ def simulate_scene(radar: Radar, trajectory: Trajectory, look: Look, scene: Any,
         Path orders to keep (``0``: direct backscatter only); default all.
     density, seed, sweeps, chunk_lanes, bins_per_cell, beam_cull, rvp, normalized,
     scene_params, progress, max_depth, rays, ray_cover, capture, ghosts, plane_normal,
-    slab_width
+    slab_width, navigation
         As :func:`trace` (monostatic).
 
     Returns
@@ -541,7 +562,7 @@ def simulate_scene(radar: Radar, trajectory: Trajectory, look: Look, scene: Any,
     run = _Run("simulate_scene", radar, trajectory, look, scene, density, seed, sweeps,
                chunk_lanes, bins_per_cell, beam_cull, scene_params,
                _multipath_options(max_depth, rays, ray_cover, capture, ghosts, plane_normal,
-                                  slab_width))
+                                  slab_width), navigation=navigation)
     _order_mask("simulate_scene", orders, np.arange(1))  # validate early
     samples = np.zeros((len(run.sweeps), radar.samples_per_sweep), dtype=np.complex128)
     row = 0
@@ -557,11 +578,12 @@ def simulate_scene(radar: Radar, trajectory: Trajectory, look: Look, scene: Any,
                  orders=[int(o) for o in kept])
     if targets or background is not None:
         analytic = simulate_point_targets(radar, trajectory, look, targets, background,
-                                                 seed=attrs["seed"], rvp=rvp,
-                                                 normalized=normalized)
+                                          seed=attrs["seed"], rvp=rvp, normalized=normalized,
+                                          navigation=run.recorded)
         samples += analytic["raw"].values[run.sweeps]
         attrs["simulator"] += " + analytic point targets"
         attrs["analytic_config"] = analytic.attrs.get("config", "{}")
-    product = make_raw_product(samples, radar, look, run.geometry_of(run.sweeps), rvp=rvp,
-                               attrs=attrs)
+    recorded, true = run.geometry_of(run.sweeps)
+    product = make_raw_product(samples, radar, look, recorded, rvp=rvp, attrs=attrs,
+                               true_geometry=true)
     return product.assign_coords(sweep=run.sweeps)
