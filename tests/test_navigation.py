@@ -9,6 +9,7 @@ from scipy.special import jv
 
 import mitsar
 from mitsar.errors import ParameterError
+from mitsar.experiment import experiment_from_dict, run_simulation
 from mitsar.focus.bpa import focus_bpa
 from mitsar.focus.grid import SlantGrid
 from mitsar.model.geometry.navigation import navigation_track
@@ -172,3 +173,31 @@ def test_traced_scenes_record_both_tracks_and_trace_the_true_one():
                                raw["platform_position"].values[[3]], atol=1e-12)
     np.testing.assert_allclose(back["true_platform_position"].values,
                                raw["true_platform_position"].values[[3]], atol=1e-12)
+
+
+def test_experiments_take_navigation_errors_from_the_trajectory_table():
+    document = {
+        "trajectory": {"kind": "linear", "start": [14.8, 1.4, 4.5], "velocity": [0.5, 0, 0],
+                       "duration": 0.1,
+                       "errors": {"seed": 4, "position_random_walk": [0.0, 2e-3, 0.0],
+                                  "vibration": [{"amplitude": [0, 1.5e-3, 0],
+                                                 "frequency": 10.0}]}},
+        "look": {"off_nadir_deg": 55.7},
+        "targets": [{"position": [14.83, 8.0, 0.0]}],
+        "simulation": {"normalized": True},
+    }
+    experiment = experiment_from_dict(document)
+    assert experiment.navigation.seed == 4
+    assert experiment.navigation.vibration[0].frequency == 10.0
+    assert experiment.config["trajectory"]["errors"]["position_random_walk"] == [0.0, 2e-3, 0.0]
+    raw = run_simulation(experiment)
+    assert "true_platform_position" in raw.variables
+    again = experiment_from_dict(experiment.config)  # the record runs again
+    assert again.navigation == experiment.navigation
+    document["trajectory"]["errors"]["bogus"] = 1
+    with pytest.raises(ParameterError, match="trajectory.errors.bogus"):
+        experiment_from_dict(document)
+    document["trajectory"]["errors"].pop("bogus")
+    document["trajectory"]["errors"]["vibration"][0]["frequency"] = -1.0
+    with pytest.raises(ParameterError, match="trajectory.errors.vibration"):
+        experiment_from_dict(document)

@@ -28,6 +28,7 @@ from mitsar.experiment.options import Experiment, FocusOptions, MetricsOptions
 from mitsar.experiment.parsers import (
     check_grid,
     parse_background,
+    parse_flight,
     parse_focus,
     parse_grid,
     parse_look,
@@ -36,7 +37,6 @@ from mitsar.experiment.parsers import (
     parse_scene,
     parse_simulation,
     parse_target,
-    parse_trajectory,
 )
 from mitsar.experiment.table import Table
 from mitsar.model.radar import Radar
@@ -84,7 +84,7 @@ def experiment_from_dict(data: Mapping[str, Any], source: str | os.PathLike | No
     radar = parse_radar(top.table("radar") or Table({}, "radar", where, top.base))
     top.out["radar"] = _radar_config(radar)
     trajectory_table = top.table("trajectory", required=True)
-    trajectory = parse_trajectory(trajectory_table)
+    trajectory, navigation = parse_flight(trajectory_table)
     top.out["trajectory"] = trajectory_table.out
     look_table = top.table("look", required=True)
     look = parse_look(look_table)
@@ -110,7 +110,8 @@ def experiment_from_dict(data: Mapping[str, Any], source: str | os.PathLike | No
         top.out[key] = table.out if table is not None else {}
     top.finish()
     config = json.loads(json.dumps(top.out))
-    return Experiment(radar=radar, trajectory=trajectory, look=look, targets=targets,
+    return Experiment(radar=radar, trajectory=trajectory, navigation=navigation, look=look,
+                      targets=targets,
                       background=background, simulation=sections["simulation"],
                       focus=sections["focus"], metrics=sections["metrics"], scene=scene,
                       name=name, description=description,

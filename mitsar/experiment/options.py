@@ -19,6 +19,7 @@ from mitsar.focus import grid as grid_module
 from mitsar.focus.dispatch import ALGORITHMS as _FOCUS_ALGORITHMS
 from mitsar.focus.windows import WINDOWS as _WINDOWS
 from mitsar.model.geometry.attitude import Look
+from mitsar.model.geometry.navigation import NavigationErrors
 from mitsar.model.geometry.trajectory import Trajectory
 from mitsar.model.radar import Radar
 from mitsar.model.targets import Background, PointTarget
@@ -145,6 +146,7 @@ class Experiment:
     ----------
     radar : Radar
     trajectory : Trajectory
+        The true track.
     look : Look
     targets : list of PointTarget
     background : Background or None
@@ -153,6 +155,8 @@ class Experiment:
     metrics : MetricsOptions
     scene : str or None
         A scene file (absolute path) or a canned scene name, for scene-based simulation.
+    navigation : NavigationErrors or None
+        ``[trajectory.errors]``: what the navigation system records differs from the track.
     name, description : str
         Free text from the file.
     source : Path or None
@@ -171,6 +175,7 @@ class Experiment:
     focus: FocusOptions
     metrics: MetricsOptions
     scene: str | None = None
+    navigation: NavigationErrors | None = None
     name: str = ""
     description: str = ""
     source: Path | None = None

@@ -28,6 +28,7 @@ from mitsar.experiment.options import (
 )
 from mitsar.experiment.table import Table, prefixed
 from mitsar.model.geometry.attitude import Look
+from mitsar.model.geometry.navigation import NavigationErrors
 from mitsar.model.geometry.trajectory import Trajectory
 from mitsar.model.radar import Radar
 from mitsar.model.targets import Background, PointTarget
@@ -45,6 +46,8 @@ __all__ = [
     "parse_scene",
     "parse_simulation",
     "parse_target",
+    "parse_flight",
+    "parse_navigation_errors",
     "parse_trajectory",
     "read_navigation_csv",
 ]
@@ -88,6 +91,49 @@ def parse_trajectory(t: Table) -> Trajectory:
             t.finish()
             return Trajectory.waypoints(points, speed)
         return parse_navigation(t)
+
+
+def parse_flight(t: Table) -> tuple[Trajectory, NavigationErrors | None]:
+    """``[trajectory]`` with its optional ``[trajectory.errors]``: the true track and what the
+    navigation system records of it (docs/navigation.md)."""
+    errors_table = t.table("errors")
+    trajectory = parse_trajectory(t)
+    if errors_table is None:
+        return trajectory, None
+    errors = parse_navigation_errors(errors_table)
+    t.out["errors"] = errors_table.out
+    return trajectory, errors
+
+
+_ERROR_VECTORS = (("position_offset", "m"), ("position_random_walk", "m/sqrt(s)"),
+                  ("position_noise", "m"), ("attitude_offset_deg", "deg"),
+                  ("attitude_random_walk_deg", "deg/sqrt(s)"), ("attitude_noise_deg", "deg"),
+                  ("lever_arm", "m"))
+
+
+def parse_navigation_errors(t: Table) -> NavigationErrors:
+    """``[trajectory.errors]``: the fields of :class:`NavigationErrors`, vibrations as
+    ``[[trajectory.errors.vibration]]`` tables (amplitude [m], frequency [Hz], phase [rad])."""
+    values: dict[str, Any] = {"seed": t.integer("seed", 0, ge=0)}
+    for name, unit in _ERROR_VECTORS:
+        vec = t.vector(name, 3, default=None, unit=unit)
+        if vec is not None:
+            values[name] = vec
+    for name, unit in (("position_correlation_time", "s"), ("attitude_correlation_time", "s"),
+                       ("sample_rate", "Hz")):
+        number = t.number(name, None, unit=unit, gt=0)
+        if number is not None:
+            values[name] = number
+    vibrations = []
+    for table in t.tables("vibration"):
+        vibrations.append({"amplitude": table.vector("amplitude", 3, unit="m"),
+                           "frequency": table.number("frequency", unit="Hz", gt=0),
+                           "phase": table.number("phase", 0.0, unit="rad")})
+        table.finish()
+    t.out["vibration"] = vibrations
+    t.finish()
+    with prefixed(t):
+        return NavigationErrors(vibration=tuple(vibrations), **values)
 
 
 def parse_navigation(t: Table) -> Trajectory:

@@ -48,12 +48,14 @@ def run_simulation(experiment: Experiment, progress: bool = False) -> xr.Dataset
             experiment.radar, experiment.trajectory, experiment.look, experiment.scene,
             targets=experiment.targets, background=experiment.background, seed=options.seed,
             density=options.scatterer_density, orders=options.orders, rvp=options.rvp,
-            normalized=options.normalized, progress=progress, **options.multipath())
+            normalized=options.normalized, progress=progress, navigation=experiment.navigation,
+            **options.multipath())
     else:
         raw = simulate_point_targets(
             experiment.radar, experiment.trajectory, experiment.look, experiment.targets,
             background=experiment.background, seed=options.seed, rvp=options.rvp,
-            normalized=options.normalized, noise=options.noise, progress=progress)
+            normalized=options.normalized, noise=options.noise, progress=progress,
+            navigation=experiment.navigation)
     raw.attrs["experiment"] = json.dumps(experiment.config)
     if experiment.source is not None:
         raw.attrs["experiment_source"] = str(experiment.source)
