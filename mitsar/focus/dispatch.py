@@ -15,6 +15,8 @@ from mitsar.focus.bpa import focus_bpa
 from mitsar.focus.frequency_domain import focus_frequency_domain
 from mitsar.focus.grid import Grid, SlantGrid, from_dict
 from mitsar.focus.image import make_image_product
+from mitsar.focus.mocomp import compensate, reference_line, reference_product
+from mitsar.focus.motion import is_straight_track
 from mitsar.focus.referenced import focus_referenced
 from mitsar.focus.windows import WINDOWS
 from mitsar.model.radar import Radar
@@ -29,7 +31,8 @@ def focus(raw: xr.Dataset, algorithm: str = "bpa", grid: Grid | dict | None = No
           azimuth_resolution: float | None = None, remove_rvp: bool = True,
           motion_correction: bool = True, backend: str = "drjit",
           range_upsample: int = 16, pixel_chunk: int | None = None,
-          algorithm_options: dict | None = None, progress: bool = False) -> xr.Dataset:
+          algorithm_options: dict | None = None, progress: bool = False,
+          motion_compensation: bool = True) -> xr.Dataset:
     """Focus a raw product into an image.
 
     Parameters
@@ -63,6 +66,10 @@ def focus(raw: xr.Dataset, algorithm: str = "bpa", grid: Grid | dict | None = No
         ``fsa``: ``upsample``, ``check_aliasing``, ``src``); see ``docs/focusing.md``.
     progress : bool
         Show a progress bar (back-projection).
+    motion_compensation : bool
+        RDA, WDA and FSA on a track that is not straight: compensate the data to the fitted
+        straight reference line (:mod:`mitsar.focus.mocomp`, limits in ``docs/focusing.md``);
+        False refuses such a track.
 
     Returns
     -------
@@ -109,7 +116,9 @@ def focus(raw: xr.Dataset, algorithm: str = "bpa", grid: Grid | dict | None = No
         coverage = np.ones(values.shape)
         extra = {"rvp_removed": 0, "motion_correction": 0, "backend": "numpy", **extra}
     elif algorithm != "bpa":
-        layout = grid.resolve(raw, radar, nominal_azimuth)
+        raw, layout, compensation = _straighten(raw, radar, grid, nominal_azimuth, half_width,
+                                                motion_compensation)
+        processing.update(compensation)
         values, coverage, extra = focus_frequency_domain(
             raw, algorithm, layout, half_width=half_width, window=window,
             range_window=range_window, remove_rvp_flag=remove_rvp,
@@ -126,6 +135,20 @@ def focus(raw: xr.Dataset, algorithm: str = "bpa", grid: Grid | dict | None = No
     shape = layout["position"].shape[:2]
     return make_image_product(raw, np.reshape(values, shape), layout, {**processing, **extra},
                               coverage=np.reshape(coverage, shape))
+
+
+def _straighten(raw: xr.Dataset, radar: Radar, grid: Grid, nominal_azimuth: float,
+                half_width: float, allowed: bool) -> tuple[xr.Dataset, dict, dict]:
+    """The raw product on a straight line for RDA/WDA/FSA: as it is when its track is straight,
+    else motion-compensated to the fitted reference line (:mod:`mitsar.focus.mocomp`)."""
+    straight, _ = is_straight_track(raw, radar)
+    if straight or not allowed:  # not allowed: the algorithm's own check refuses a curved track
+        return raw, grid.resolve(raw, radar, nominal_azimuth), {"motion_compensation": 0}
+    line = reference_line(raw)
+    reference = reference_product(raw, line, radar)
+    layout = grid.resolve(reference, radar, nominal_azimuth)
+    compensated, info = compensate(raw, reference, line, radar, layout, half_width)
+    return compensated, layout, {"motion_compensation": 1, **info}
 
 
 def _check_processed_band(raw: xr.Dataset, radar: Radar, half_width: float,
