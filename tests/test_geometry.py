@@ -120,3 +120,49 @@ def test_bad_trajectory_inputs_name_the_parameter():
         mitsar.Trajectory.linear([0, 0], [1, 0, 0], 1.0)
     with pytest.raises(mitsar.ParameterError, match="'off_nadir_deg'"):
         mitsar.Look(-5.0)
+
+
+# --- drone flights: turns, speed changes, hover (mitsar/model/geometry/flight.py) ----------------
+
+def test_flight_turns_are_circular_arcs_flown_at_constant_speed():
+    """A lawn-mower U-turn of radius 1 m: during the turn the antenna stays 1 m from the turn's
+    centre, the speed is the commanded one, and the heading turns by 180 deg (1e-6: the
+    Hermite interpolation of 1 kHz samples)."""
+    track = mitsar.Trajectory.flight([[0, 0, 4], [3, 0, 4], [3, 2, 4], [0, 2, 4]], 0.5,
+                                     turn_radius=1.0)
+    assert track.duration == pytest.approx((4 + np.pi) / 0.5, rel=1e-6)
+    t = np.linspace(0.0, track.duration, 501)
+    np.testing.assert_allclose(np.linalg.norm(track.velocity(t), axis=1), 0.5, atol=1e-6)
+    turning = (t > 2.0 / 0.5 + 1e-3) & (t < (2.0 + np.pi) / 0.5 - 1e-3)
+    radius = np.linalg.norm(track.position(t[turning])[:, :2] - [2.0, 1.0], axis=1)
+    np.testing.assert_allclose(radius, 1.0, atol=1e-6)
+    heading = track.attitude_at(t)[:, 0]
+    assert heading[-1] - heading[0] == pytest.approx(np.pi, abs=1e-6)
+    assert not track.is_straight
+
+
+def test_flight_hover_then_go_and_speed_changes_follow_the_acceleration():
+    """From rest after 0.5 s of hover at 1 m/s^2: x = a (t - 0.5)^2 / 2 until 0.5 m/s; then a
+    second leg at 0.3 m/s reached by decelerating at the same rate."""
+    track = mitsar.Trajectory.flight([[0, 0, 4], [2, 0, 4], [4, 0, 4]], [0.5, 0.3],
+                                     acceleration=1.0, hover=0.5)
+    t = np.array([0.0, 0.3, 0.7, 0.9])
+    x = track.position(t)[:, 0]
+    np.testing.assert_allclose(x, [0.0, 0.0, 0.5 * 0.2**2, 0.5 * 0.4**2], atol=2e-4)
+    late = track.duration - 0.5
+    assert np.linalg.norm(track.velocity(late)) == pytest.approx(0.3, abs=1e-4)
+    speeds = np.linalg.norm(track.velocity(np.linspace(0, track.duration, 2001)), axis=1)
+    assert np.abs(np.diff(speeds)).max() <= 1.0 * track.duration / 2000 * 1.05
+
+
+def test_flight_inputs_are_named():
+    from mitsar.errors import ParameterError
+
+    with pytest.raises(ParameterError, match="turn_radius"):
+        mitsar.Trajectory.flight([[0, 0, 4], [1, 0, 4], [1, 1, 4]], 0.5, turn_radius=5.0)
+    with pytest.raises(ParameterError, match="acceleration"):
+        mitsar.Trajectory.flight([[0, 0, 4], [1, 0, 4]], 0.5, hover=1.0)
+    with pytest.raises(ParameterError, match="points\\[1\\]"):
+        mitsar.Trajectory.flight([[0, 0, 4], [1, 0, 4], [0, 0, 4]], 0.5)
+    with pytest.raises(ParameterError, match="speed"):
+        mitsar.Trajectory.flight([[0, 0, 4], [1, 0, 4], [2, 0, 4]], [0.5, 0.5, 0.5])

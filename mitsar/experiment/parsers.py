@@ -76,8 +76,8 @@ _RADAR_UNITS = {"carrier_frequency": "Hz", "bandwidth": "Hz", "sampling_frequenc
 
 
 def parse_trajectory(t: Table) -> Trajectory:
-    """``[trajectory]``: kind = "linear" | "waypoints" | "navigation"."""
-    kind = t.string("kind", "linear", choices=("linear", "waypoints", "navigation"))
+    """``[trajectory]``: kind = "linear" | "waypoints" | "flight" | "navigation"."""
+    kind = t.string("kind", "linear", choices=("linear", "waypoints", "flight", "navigation"))
     with prefixed(t):
         if kind == "linear":
             start = t.vector("start", 3, unit="m")
@@ -90,6 +90,16 @@ def parse_trajectory(t: Table) -> Trajectory:
             speed = t.number("speed", unit="m/s", gt=0)
             t.finish()
             return Trajectory.waypoints(points, speed)
+        if kind == "flight":
+            points = t.vectors("points", 3, min_count=2, unit="m")
+            speed = (t.numbers("speed", min_count=1, unit="m/s")
+                     if isinstance(t.data.get("speed"), list)
+                     else t.number("speed", unit="m/s", gt=0))
+            options = {"turn_radius": t.number("turn_radius", 0.0, unit="m", ge=0),
+                       "acceleration": t.number("acceleration", None, unit="m/s^2", gt=0),
+                       "hover": t.number("hover", 0.0, unit="s", ge=0)}
+            t.finish()
+            return Trajectory.flight(points, speed, **options)
         return parse_navigation(t)
 
 

@@ -16,6 +16,7 @@ from scipy.interpolate import CubicHermiteSpline, CubicSpline
 
 from mitsar.checks import positive, vector
 from mitsar.errors import ParameterError
+from mitsar.model.geometry.flight import sample_flight
 
 _VECTOR = "3 finite numbers [m or m/s]"
 """Expectation of the 3-vector arguments (start, velocity) in error messages."""
@@ -39,7 +40,7 @@ class Trajectory:
         (heading along the horizontal velocity, zero pitch and roll).
     """
 
-    kind: Literal["linear", "waypoints", "navigation"]
+    kind: Literal["linear", "waypoints", "navigation", "flight"]
     times: NDArray[np.float64]
     positions: NDArray[np.float64]
     velocities: NDArray[np.float64]
@@ -139,6 +140,46 @@ class Trajectory:
             attitude[:, 0] = np.unwrap(attitude[:, 0])
         spline = CubicHermiteSpline(times, positions, velocities, axis=0)
         return cls("navigation", times, positions, velocities, attitude, spline)
+
+    @classmethod
+    def flight(cls, points: ArrayLike, speed: float | ArrayLike, *, turn_radius: float = 0.0,
+               acceleration: float | None = None, hover: float = 0.0,
+               sample_rate: float = 1000.0) -> Trajectory:
+        """A drone flight: legs joined by circular turns, speed changes, an initial hover.
+
+        The path and its timing are :func:`mitsar.model.geometry.flight.sample_flight`'s
+        (module docstring there); the result is evaluated like navigation data (cubic Hermite
+        on the samples, with their exact velocities), heading along the path, level flight.
+
+        Parameters
+        ----------
+        points : array_like, shape (n, 3)
+            Waypoints [m].
+        speed : float or array_like, shape (n - 1,)
+            Speed per leg [m/s].
+        turn_radius : float
+            Radius of the turns [m] (0: sharp corners).
+        acceleration : float, optional
+            Rate of speed changes [m/s^2]; required with ``hover``.
+        hover : float
+            Time at rest at the first waypoint [s].
+        sample_rate : float
+            Samples per second of the path [Hz].
+
+        Examples
+        --------
+        A lawn-mower U-turn of radius 1 m at 0.5 m/s:
+
+        >>> track = Trajectory.flight([[0, 0, 4], [3, 0, 4], [3, 2, 4], [0, 2, 4]], 0.5,
+        ...                           turn_radius=1.0)
+        """
+        flown = sample_flight(points, speed, turn_radius=turn_radius,
+                              acceleration=acceleration, hover=hover, sample_rate=sample_rate)
+        attitude = np.zeros((len(flown.times), 3))
+        attitude[:, 0] = np.degrees(flown.heading)
+        made = cls.navigation(flown.times, flown.positions, flown.velocities, attitude)
+        return cls("flight", made.times, made.positions, made.velocities, made.attitude,
+                   made._spline)
 
     # --- evaluation -----------------------------------------------------------------------
     @property
