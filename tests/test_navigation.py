@@ -13,6 +13,8 @@ from mitsar.experiment import experiment_from_dict, run_simulation
 from mitsar.focus.bpa import focus_bpa
 from mitsar.focus.grid import SlantGrid
 from mitsar.model.geometry.navigation import navigation_track
+from mitsar.plots import navigation as plots_navigation
+from mitsar.plots.products import save_figure
 
 RADAR = mitsar.Radar()
 START = np.array([14.8, 1.4, 4.5])
@@ -201,3 +203,27 @@ def test_experiments_take_navigation_errors_from_the_trajectory_table():
     document["trajectory"]["errors"]["vibration"][0]["frequency"] = -1.0
     with pytest.raises(ParameterError, match="trajectory.errors.vibration"):
         experiment_from_dict(document)
+
+
+def test_navigation_phase_and_figures(tmp_path):
+    """The injected phase at a point is 4 pi / lambda times the line-of-sight error: a 0.2 mm
+    vibration along the line of sight gives 4 pi 0.2 mm / lambda = 0.788 rad of amplitude (to
+    the second-order range change of the off-sight components, < 1e-3 rad)."""
+    short = mitsar.Trajectory.linear(START, [0.5, 0.0, 0.0], 0.4)
+    point = np.array([14.9, 8.0, 0.0])
+    sight = point - short.position(0.2)
+    sight /= np.linalg.norm(sight)
+    errors = mitsar.NavigationErrors(vibration=(mitsar.Vibration(tuple(2e-4 * sight), 5.0),))
+    raw = mitsar.simulate_point_targets(RADAR, short, LOOK, [mitsar.PointTarget(point)],
+                                        normalized=True, navigation=errors)
+    phase = plots_navigation.navigation_phase(raw, point)
+    assert np.abs(phase).max() == pytest.approx(4 * math.pi * 2e-4 / RADAR.wavelength,
+                                                rel=2e-3)
+    axes = plots_navigation.plot_tracks(raw)
+    assert save_figure(axes[0].figure, tmp_path / "tracks.png").stat().st_size > 1000
+    ax = plots_navigation.plot_phase(raw, point, {"estimate": -phase})
+    assert save_figure(ax.figure, tmp_path / "phase.png").stat().st_size > 1000
+    with pytest.raises(ParameterError, match="raw"):
+        plots_navigation.navigation_phase(
+            mitsar.simulate_point_targets(RADAR, short, LOOK, [mitsar.PointTarget(point)],
+                                          normalized=True), point)
