@@ -17,7 +17,8 @@ demo: setup
 	$(VENV)/bin/mitsar demo -o demo-output --overwrite
 
 # Every bundled example: ray-traced scenes, the paper's 2D/3D multipath cases, ambiguity maps,
-# a short Monte Carlo and the ablation figures (a few minutes; outputs in demo-output/examples).
+# a short Monte Carlo, the ablation figures and real flight (navigation errors, autofocus)
+# (a few minutes; outputs in demo-output/examples).
 examples: setup
 	mkdir -p demo-output/examples
 	$(VENV)/bin/mitsar simulate examples/scene_point_target.toml -o demo-output/examples/scene_raw.nc --overwrite
@@ -33,6 +34,7 @@ examples: setup
 	$(VENV)/bin/mitsar ambiguity examples/ambiguity_control_volume.toml -o demo-output/examples/ambiguity --overwrite
 	$(VENV)/bin/mitsar montecarlo examples/paper_point_target.toml -n 5 -o demo-output/examples/montecarlo --restart
 	$(PY) examples/ablations.py -o demo-output/examples/ablations --overwrite
+	$(PY) examples/real_flight.py -o demo-output/examples/real_flight --overwrite
 
 lint: setup
 	$(VENV)/bin/ruff check .

@@ -32,7 +32,13 @@ from mitsar.errors import MitsarError
 from mitsar.experiment import montecarlo
 from mitsar.experiment.examples import example_path
 from mitsar.experiment.loading import focus_options_from_config, load_experiment, load_grid
-from mitsar.experiment.options import ALGORITHMS, ISLR_EXTENTS, WINDOWS, FocusOptions
+from mitsar.experiment.options import (
+    ALGORITHMS,
+    AUTOFOCUS_METHODS,
+    ISLR_EXTENTS,
+    WINDOWS,
+    FocusOptions,
+)
 from mitsar.experiment.rays import run_rays
 from mitsar.experiment.runs import run_focus, run_metrics, run_simulation
 from mitsar.focus.compression import range_compress
@@ -82,7 +88,7 @@ def _log(args: argparse.Namespace, message: str) -> None:
 def cmd_simulate(args: argparse.Namespace) -> int:
     """``mitsar simulate``: experiment file -> raw product."""
     check_writable(args.output, args.overwrite)
-    experiment = load_experiment(args.experiment)
+    experiment = load_experiment(args.experiment, args.set)
     if args.seed is not None:
         if args.seed < 0:
             raise MitsarError(f"--seed: expected an integer >= 0, found {args.seed}")
@@ -125,6 +131,8 @@ def _focus_options(args: argparse.Namespace, raw: Any) -> Any:
         changes["azimuth_resolution"] = args.azimuth_resolution
     if args.full_aperture:
         changes["azimuth_resolution"] = None
+    if args.autofocus is not None:
+        changes["autofocus"] = None if args.autofocus == "none" else args.autofocus
     if args.grid is not None:
         changes["grid"] = load_grid(args.grid)
     if args.default_grid:
@@ -288,12 +296,13 @@ def cmd_montecarlo(args: argparse.Namespace) -> int:
     """``mitsar montecarlo``: metric statistics over background realisations (Tables 4-5)."""
     out = Path(args.output)
     _log(args, f"Monte Carlo: {args.realisations} realisations x {', '.join(args.algorithms)}")
-    summary = montecarlo.run(args.experiment, args.realisations, args.algorithms, out_dir=out,
+    experiment = load_experiment(args.experiment, args.set)
+    summary = montecarlo.run(experiment, args.realisations, args.algorithms, out_dir=out,
                              resume=not args.restart, progress=not args.quiet)
     print(montecarlo.format_table(summary))
     if args.cuts:
         for algorithm in args.algorithms:
-            cuts = montecarlo.realisation_cuts(args.experiment, algorithm, args.cuts)
+            cuts = montecarlo.realisation_cuts(experiment, algorithm, args.cuts)
             figure = montecarlo.plot_realisation_cuts(cuts, out / f"cuts_{algorithm}.png",
                                                       overwrite=True)
             _log(args, f"wrote {figure}")
@@ -303,8 +312,8 @@ def cmd_montecarlo(args: argparse.Namespace) -> int:
 def cmd_rays(args: argparse.Namespace) -> int:
     """``mitsar rays``: ray geometry and echo figures of a scene experiment."""
     _log(args, f"tracing rays of {args.experiment} (sweep {args.sweep}) ...")
-    summary = run_rays(args.experiment, args.output, args.rays, args.sweep,
-                          overwrite=args.overwrite)
+    summary = run_rays(load_experiment(args.experiment, args.set), args.output, args.rays,
+                       args.sweep, overwrite=args.overwrite)
     ratio = summary.get("reflections_over_backscatter_amplitude")
     print(f"captured reflected rays: {summary['captures']}; reflections / backscatter peak "
           f"amplitude after the range FFT: {'none' if not ratio else f'{ratio:.3g}'}")
@@ -356,6 +365,12 @@ def _file_command(commands: Any, common: argparse.ArgumentParser, name: str, fun
     return sub
 
 
+def _add_set(sub: argparse.ArgumentParser) -> None:
+    sub.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                     help="override an experiment key, e.g. --set background.cell_rcs_db=-10 "
+                     "(repeatable; TOML values, dotted keys)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``mitsar`` command."""
     parser = argparse.ArgumentParser(
@@ -374,6 +389,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "of a TOML experiment file (docs/experiments.md).",
                         ("experiment", "EXPERIMENT.toml"), "raw product to write (.nc)")
     sub.add_argument("--seed", type=int, help="override [simulation] seed")
+    _add_set(sub)
 
     sub = _file_command(commands, common, "range", cmd_range, "range-compress raw data",
                         "Range-compress a raw product (RVP removed).", ("raw", "RAW.nc"),
@@ -385,6 +401,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "experiment the raw data came from.", ("raw", "RAW.nc"),
                         "image product to write (.nc)")
     sub.add_argument("-a", "--algorithm", choices=ALGORITHMS, help="focusing algorithm")
+    sub.add_argument("--autofocus", choices=AUTOFOCUS_METHODS + ("none",),
+                     help="autofocus after back-projection (bpa, ffbp): phase gradient or "
+                     "minimum entropy")
     sub.add_argument("--window", choices=WINDOWS, help="range and azimuth window")
     sub.add_argument("--azimuth-resolution", type=float, metavar="M",
                      help="processed azimuth resolution [m]")
@@ -436,6 +455,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_argument("--cuts", type=int, default=5, metavar="N",
                      help="also plot cuts of N realisations over the nominal response "
                      "(paper Figs. 8-9; 0: none)")
+    _add_set(sub)
 
     sub = _folder_command(commands, common, "rays", cmd_rays,
                           "ray geometry and echoes of a scene (paper Figs. 6, 10, 11)",
@@ -445,6 +465,7 @@ def build_parser() -> argparse.ArgumentParser:
                           "marked.", "EXPERIMENT.toml")
     sub.add_argument("--rays", type=int, metavar="N", help="rays drawn from the path log")
     sub.add_argument("--sweep", type=int, default=0, help="sweep to trace (0)")
+    _add_set(sub)
 
     sub = _folder_command(commands, common, "ambiguity", cmd_ambiguity,
                           "resolution and ambiguity maps of a trajectory",

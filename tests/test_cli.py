@@ -9,6 +9,8 @@ import sys
 import pytest
 
 from mitsar.cli import main
+from mitsar.experiment.examples import example_path
+from mitsar.experiment.loading import apply_overrides
 from mitsar.io import load
 
 # One point target seen over +-0.6 m of track (2.8 s), a small image around it: fast, and wide
@@ -264,3 +266,23 @@ def test_rays_command_on_the_paper_2d_case(tmp_path, capsys):
     for name in ("echoes.png", "rays_2d.png", "summary.json"):
         assert (tmp_path / name).stat().st_size > 0
     assert main(["rays", str(example_path("case2_2d")), "-o", str(tmp_path), "-q"]) == 2
+
+
+def test_set_overrides_experiment_keys(tmp_path):
+    """--set changes any key before validation; the record holds the effective value, and a
+    key that does not exist is refused by name."""
+    document = {"background": {"cell_rcs_db": -20.0}, "targets": [{"rcs": 1.0}]}
+    apply_overrides(document, ["background.cell_rcs_db=-10", "targets.0.rcs=2.5",
+                               "focus.algorithm=wda", "focus.window=\"hamming\""])
+    assert document == {"background": {"cell_rcs_db": -10}, "targets": [{"rcs": 2.5}],
+                        "focus": {"algorithm": "wda", "window": "hamming"}}
+    out = tmp_path / "raw.nc"
+    assert main(["simulate", str(example_path("paper_point_target")), "-o", str(out), "-q",
+                 "--set", "trajectory.duration=0.2", "--set", "simulation.seed=9"]) == 0
+    raw = load(out)
+    assert raw.sizes["sweep"] == 50
+    assert json.loads(raw.attrs["experiment"])["simulation"]["seed"] == 9
+    assert main(["simulate", str(example_path("paper_point_target")), "-o",
+                 str(tmp_path / "x.nc"), "-q", "--set", "trajectory.bogus=1"]) == 2
+    assert main(["simulate", str(example_path("paper_point_target")), "-o",
+                 str(tmp_path / "x.nc"), "-q", "--set", "noequals"]) == 2

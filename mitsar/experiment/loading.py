@@ -19,11 +19,11 @@ import dataclasses
 import json
 import os
 import tomllib
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from mitsar.errors import MitsarError
+from mitsar.errors import MitsarError, ParameterError
 from mitsar.experiment.options import Experiment, FocusOptions, MetricsOptions
 from mitsar.experiment.parsers import (
     check_grid,
@@ -42,6 +42,7 @@ from mitsar.experiment.table import Table
 from mitsar.model.radar import Radar
 
 __all__ = [
+    "apply_overrides",
     "experiment_from_dict",
     "focus_options_from_config",
     "load_experiment",
@@ -125,7 +126,7 @@ def _radar_config(radar: Radar) -> dict[str, Any]:
             if getattr(radar, f.name) is not None}
 
 
-def load_experiment(path: str | os.PathLike) -> Experiment:
+def load_experiment(path: str | os.PathLike, overrides: Sequence[str] = ()) -> Experiment:
     """Read and validate a TOML experiment file.
 
     Parameters
@@ -133,6 +134,9 @@ def load_experiment(path: str | os.PathLike) -> Experiment:
     path : path-like
         The ``.toml`` file. Relative paths inside it (``scene``, navigation ``file``) are
         resolved against its folder.
+    overrides : sequence of str
+        ``"key.path=value"`` changes applied before validation (:func:`apply_overrides`; the
+        CLI's ``--set``).
 
     Returns
     -------
@@ -153,7 +157,52 @@ def load_experiment(path: str | os.PathLike) -> Experiment:
     250.0
     """
     path = Path(path)
-    return experiment_from_dict(read_toml(path), source=path)
+    return experiment_from_dict(apply_overrides(read_toml(path), overrides, str(path)),
+                                source=path)
+
+
+def apply_overrides(document: dict[str, Any], overrides: Sequence[str],
+                    where: str = "--set") -> dict[str, Any]:
+    """Set keys of a TOML document from ``"key.path=value"`` strings (in place, returned).
+
+    ``value`` is read as a TOML value (``-10``, ``0.5``, ``true``, ``[1, 2, 3]``,
+    ``"text"``); anything that is not one is taken as a string (``algorithm=wda``). Tables along
+    the path are created; an entry of an array of tables is addressed by its index
+    (``targets.0.rcs=2``). The validation that follows names any key that does not exist.
+
+    Raises
+    ------
+    ParameterError
+        For an override without ``=`` or with an empty key, or a path through a value that is
+        not a table.
+    """
+    for override in overrides:
+        key, sep, text = override.partition("=")
+        parts = [p.strip() for p in key.strip().split(".")]
+        if not sep or not all(parts):
+            raise ParameterError(where, "--set", "KEY=VALUE with a dotted key, e.g. "
+                                 "background.cell_rcs_db=-10", override)
+        try:
+            value = tomllib.loads(f"value = {text.strip()}")["value"]
+        except tomllib.TOMLDecodeError:
+            value = text.strip()
+        node: Any = document
+        for depth, part in enumerate(parts[:-1]):
+            if isinstance(node, list) and part.isdigit() and int(part) < len(node):
+                node = node[int(part)]
+                continue
+            if not isinstance(node, dict):
+                raise ParameterError(where, ".".join(parts[:depth + 1]), "a table to set a "
+                                     "key in", override)
+            node = node.setdefault(part, {})
+        last = parts[-1]
+        if isinstance(node, list) and last.isdigit() and int(last) < len(node):
+            node[int(last)] = value
+        elif isinstance(node, dict):
+            node[last] = value
+        else:
+            raise ParameterError(where, key, "a key of a table", override)
+    return document
 
 
 def load_grid(path: str | os.PathLike) -> dict[str, Any]:

@@ -27,6 +27,7 @@ from mitsar.quality.cuts import ISLR_EXTENTS as _QUALITY_EXTENTS
 
 __all__ = [
     "ALGORITHMS",
+    "AUTOFOCUS_METHODS",
     "GRID_KINDS",
     "ISLR_EXTENTS",
     "WINDOWS",
@@ -37,6 +38,9 @@ __all__ = [
 ]
 
 ALGORITHMS = tuple(_FOCUS_ALGORITHMS)
+
+AUTOFOCUS_METHODS = ("pga", "entropy")
+"""Autofocus methods of :func:`mitsar.focus` (``autofocus=``)."""
 """Focusing algorithms accepted by ``[focus] algorithm``."""
 
 ISLR_EXTENTS = tuple(_QUALITY_EXTENTS)
@@ -98,7 +102,7 @@ class FocusOptions:
 
     Attributes
     ----------
-    algorithm : {"bpa", "rda", "wda", "fsa"}
+    algorithm : {"bpa", "rda", "wda", "fsa", "ffbp"}
         Focusing algorithm.
     window : str
         Spectral window of range and azimuth compression (``"rect"`` = none).
@@ -107,12 +111,15 @@ class FocusOptions:
     grid : dict or None
         The ``[focus.grid]`` table (see :func:`mitsar.focus.grid.from_dict`); ``None`` lets the
         algorithm choose its default slant-range grid.
+    autofocus : {"pga", "entropy"} or None
+        Autofocus after back-projection (``docs/autofocus.md``); ``None``: none.
     """
 
     algorithm: str = "bpa"
     window: str = "rect"
     azimuth_resolution: float | None = None
     grid: dict[str, Any] | None = None
+    autofocus: str | None = None
 
     def make_grid(self) -> Any:
         """The output grid object, or ``None`` for the algorithm's default grid."""

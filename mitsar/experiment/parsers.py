@@ -19,6 +19,7 @@ import numpy as np
 
 from mitsar.experiment.options import (
     ALGORITHMS,
+    AUTOFOCUS_METHODS,
     GRID_KINDS,
     ISLR_EXTENTS,
     WINDOWS,
@@ -258,18 +259,19 @@ def parse_simulation(t: Table | None) -> SimulationOptions:
 
 
 def parse_focus(t: Table | None) -> FocusOptions:
-    """``[focus]``: algorithm, window, azimuth_resolution and ``[focus.grid]``."""
+    """``[focus]``: algorithm, window, azimuth_resolution, autofocus and ``[focus.grid]``."""
     if t is None:
         return FocusOptions()
     algorithm = t.string("algorithm", "bpa", choices=ALGORITHMS)
     window = t.string("window", "rect", choices=WINDOWS)
     resolution = t.number("azimuth_resolution", None, unit="m", gt=0)
+    autofocus = t.string("autofocus", None, choices=AUTOFOCUS_METHODS)
     grid_table = t.table("grid")
     grid = parse_grid(grid_table) if grid_table is not None else None
     if grid is not None:
         t.out["grid"] = grid
     t.finish()
-    options = FocusOptions(algorithm, window, resolution, grid)
+    options = FocusOptions(algorithm, window, resolution, grid, autofocus)
     check_grid(t, options)
     return options
 

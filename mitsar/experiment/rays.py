@@ -15,6 +15,7 @@ import numpy as np
 
 from mitsar.errors import ParameterError
 from mitsar.experiment.loading import load_experiment
+from mitsar.experiment.options import Experiment
 from mitsar.io import write_json
 from mitsar.plots.products import save_figure
 from mitsar.plots.rays import (
@@ -30,13 +31,14 @@ from mitsar.raw.traced import trace, trace_paths
 __all__ = ["run_rays"]
 
 
-def run_rays(experiment_path: str | Path, out: str | Path, path_rays: int | None = None,
-                sweep: int = 0, overwrite: bool = False) -> dict[str, Any]:
+def run_rays(experiment_path: str | Path | Experiment, out: str | Path,
+             path_rays: int | None = None, sweep: int = 0,
+             overwrite: bool = False) -> dict[str, Any]:
     """Trace an experiment with a scene and write the ray and echo figures and a summary.
 
     Parameters
     ----------
-    experiment_path : path-like
+    experiment_path : path-like or Experiment
         A TOML experiment with a ``scene`` and multipath options in ``[simulation]``.
     out : path-like
         Output folder (created).
@@ -51,10 +53,11 @@ def run_rays(experiment_path: str | Path, out: str | Path, path_rays: int | None
         The summary (also written to ``summary.json``): NR/CS/FR, echo peaks per order, the
         ratio of the reflections' peak to the backscatter peak, captures.
     """
-    exp = load_experiment(experiment_path)
+    exp = (experiment_path if isinstance(experiment_path, Experiment)
+           else load_experiment(experiment_path))
     if exp.scene is None:
-        raise ParameterError(str(experiment_path), "scene", "a scene (XML file or canned name) "
-                             "to trace rays in", None)
+        raise ParameterError(str(exp.source or "experiment"), "scene", "a scene (XML file or "
+                             "canned name) to trace rays in", None)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     options = exp.simulation
@@ -70,7 +73,8 @@ def run_rays(experiment_path: str | Path, out: str | Path, path_rays: int | None
     paths = every_ray if path_rays >= count else every_ray.isel(
         path=np.unique(np.round(np.linspace(0, count - 1, path_rays)).astype(int)))
     marks = beam_marks(every_ray)
-    name = exp.name or Path(experiment_path).stem
+    source = exp.source if exp.source is not None else "experiment"
+    name = exp.name or Path(source).stem
     figures = {}
     fig = figure_echoes(hist, marks, title=name)
     figures["echoes"] = save_figure(fig, out / "echoes.png", overwrite=overwrite, dpi=130)
@@ -91,7 +95,7 @@ def run_rays(experiment_path: str | Path, out: str | Path, path_rays: int | None
     refl_peak = float(np.abs(reflections).max())
     orders = hist["histogram"].values[0]
     summary = {
-        "experiment": str(experiment_path), "marks_m": marks,
+        "experiment": str(source), "marks_m": marks,
         "captures": int(hist.attrs["traced_captures"]),
         "captured_rays_in_log": int((every_ray["captured"].values.sum(axis=1) > 0).sum()),
         "order_power_w": [float(abs(orders[o].sum()) ** 2) for o in range(orders.shape[0])],

@@ -75,7 +75,7 @@ def run_focus(raw: xr.Dataset, options: FocusOptions, progress: bool = False) ->
     raw : xarray.Dataset
         A raw product.
     options : FocusOptions
-        Algorithm, window, azimuth resolution and grid.
+        Algorithm, window, azimuth resolution, grid and autofocus.
     progress : bool
         Show a progress bar when the algorithm supports one.
 
@@ -84,9 +84,10 @@ def run_focus(raw: xr.Dataset, options: FocusOptions, progress: bool = False) ->
     xarray.Dataset
         The image product.
     """
+    extra = {} if options.autofocus is None else {"autofocus": options.autofocus}
     image = focus(raw, algorithm=options.algorithm, grid=options.make_grid(),
                   window=options.window, azimuth_resolution=options.azimuth_resolution,
-                  progress=progress)
+                  progress=progress, **extra)
     for key in ("experiment", "experiment_source", "experiment_name"):
         if key in raw.attrs and key not in image.attrs:
             image.attrs[key] = raw.attrs[key]
