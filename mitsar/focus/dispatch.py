@@ -11,6 +11,7 @@ import xarray as xr
 
 from mitsar.errors import ParameterError
 from mitsar.focus.aperture import aperture_half_width
+from mitsar.focus.autofocus import PulseSettings, make_options, run_autofocus
 from mitsar.focus.bpa import focus_bpa
 from mitsar.focus.frequency_domain import focus_frequency_domain
 from mitsar.focus.grid import Grid, SlantGrid, from_dict
@@ -32,7 +33,8 @@ def focus(raw: xr.Dataset, algorithm: str = "bpa", grid: Grid | dict | None = No
           motion_correction: bool = True, backend: str = "drjit",
           range_upsample: int = 16, pixel_chunk: int | None = None,
           algorithm_options: dict | None = None, progress: bool = False,
-          motion_compensation: bool = True) -> xr.Dataset:
+          motion_compensation: bool = True, autofocus: str | None = None,
+          autofocus_options: dict | None = None) -> xr.Dataset:
     """Focus a raw product into an image.
 
     Parameters
@@ -70,6 +72,14 @@ def focus(raw: xr.Dataset, algorithm: str = "bpa", grid: Grid | dict | None = No
         RDA, WDA and FSA on a track that is not straight: compensate the data to the fitted
         straight reference line (:mod:`mitsar.focus.mocomp`, limits in ``docs/focusing.md``);
         False refuses such a track.
+    autofocus : {"pga", "entropy"} or None
+        Estimate a phase error per sweep from the image (phase gradient or minimum-entropy
+        autofocus), correct the raw sweeps and refocus; back-projection only ("bpa", "ffbp").
+        The image then holds ``autofocus_phase`` (sweep) [rad] and ``autofocus_*``
+        attributes (:mod:`mitsar.focus.autofocus`, ``docs/autofocus.md``).
+    autofocus_options : dict, optional
+        Options of the autofocus method (:class:`mitsar.focus.autofocus.PGAOptions`,
+        :class:`mitsar.focus.autofocus.EntropyOptions`).
 
     Returns
     -------
@@ -88,6 +98,13 @@ def focus(raw: xr.Dataset, algorithm: str = "bpa", grid: Grid | dict | None = No
                              azimuth_resolution)
     if backend not in ("drjit", "numpy"):
         raise ParameterError("focus", "backend", "'drjit' or 'numpy'", backend)
+    if autofocus is not None:
+        focusers = tuple(name for name in ("bpa", "ffbp") if name in ALGORITHMS)
+        if algorithm not in focusers:
+            raise ParameterError("focus", "autofocus", f"None with algorithm {algorithm!r} "
+                                 f"(autofocus needs a back-projection image: algorithm in "
+                                 f"{focusers})", autofocus)
+        make_options(autofocus, autofocus_options)  # refuse a bad method or option early
     if raw.attrs.get("product") != "raw":
         raise ParameterError("focus", "raw", "a raw product (attribute product='raw')",
                              raw.attrs.get("product"))
@@ -133,8 +150,19 @@ def focus(raw: xr.Dataset, algorithm: str = "bpa", grid: Grid | dict | None = No
             range_upsample=range_upsample, progress=progress,
             pixel_chunk=pixel_chunk or (1 << 16 if progress else 1 << 20))
     shape = layout["position"].shape[:2]
-    return make_image_product(raw, np.reshape(values, shape), layout, {**processing, **extra},
-                              coverage=np.reshape(coverage, shape))
+    image = make_image_product(raw, np.reshape(values, shape), layout, {**processing, **extra},
+                               coverage=np.reshape(coverage, shape))
+    if autofocus is None:
+        return image
+    settings = PulseSettings(half_width=half_width, window=window, range_window=range_window,
+                             remove_rvp=remove_rvp, motion_correction=motion_correction,
+                             range_upsample=range_upsample)
+    return run_autofocus(raw, image, lambda corrected: focus(
+        corrected, algorithm, grid, window=window, range_window=range_window,
+        azimuth_resolution=azimuth_resolution, remove_rvp=remove_rvp,
+        motion_correction=motion_correction, backend=backend, range_upsample=range_upsample,
+        pixel_chunk=pixel_chunk, algorithm_options=algorithm_options, progress=progress,
+        motion_compensation=motion_compensation), autofocus, autofocus_options, settings)
 
 
 def _straighten(raw: xr.Dataset, radar: Radar, grid: Grid, nominal_azimuth: float,

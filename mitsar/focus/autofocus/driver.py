@@ -1,0 +1,119 @@
+"""Autofocus of a back-projection image: estimate the phase per sweep, correct, refocus.
+
+:func:`run_autofocus` works with any back-projection focuser through a ``refocus`` callable
+(raw product -> image product): it picks bright scatterers (PGA, entropy on lines) or takes the
+pixels (entropy on the image) of the uncorrected image, estimates the phase in the pulse domain
+with the BP geometry (:mod:`mitsar.focus.autofocus.contributions`; valid for any focuser whose
+image is that BP sum, e.g. BPA or a fast factorised BP), corrects the raw sweeps by
+``exp(-j phi_k)`` (:mod:`mitsar.focus.autofocus.apply`) and calls ``refocus`` on them.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import fields
+
+import numpy as np
+import xarray as xr
+
+from mitsar.errors import ParameterError
+from mitsar.focus.autofocus.apply import attach_phase, correct_raw
+from mitsar.focus.autofocus.contributions import (
+    PulseSettings,
+    aperture_weights,
+    contributions,
+    pulse_data,
+)
+from mitsar.focus.autofocus.entropy import EntropyOptions, estimate_entropy, image_entropy
+from mitsar.focus.autofocus.lines import azimuth_lines
+from mitsar.focus.autofocus.pga import PGAOptions, estimate_pga, select_scatterers
+
+__all__ = ["METHODS", "make_options", "run_autofocus"]
+
+METHODS = ("pga", "entropy")
+"""Names of the autofocus methods."""
+
+_OPTIONS = {"pga": PGAOptions, "entropy": EntropyOptions}
+
+
+def make_options(method: str, options: dict | None) -> PGAOptions | EntropyOptions:
+    """Check a method name and its options dict; the options record of that method.
+
+    Raises
+    ------
+    ParameterError
+        Unknown method, unknown option name, or an option out of range.
+    """
+    if method not in METHODS:
+        raise ParameterError("focus", "autofocus", f"None or one of {METHODS}", method)
+    record = _OPTIONS[method]
+    allowed = sorted(f.name for f in fields(record))
+    unknown = sorted(set(options or {}) - set(allowed))
+    if unknown:
+        raise ParameterError("focus", "autofocus_options",
+                             f"options of {method!r}: {allowed}", unknown)
+    return record(**(options or {}))
+
+
+def run_autofocus(raw: xr.Dataset, image: xr.Dataset,
+                  refocus: Callable[[xr.Dataset], xr.Dataset], method: str,
+                  options: dict | None, settings: PulseSettings) -> xr.Dataset:
+    """Autofocus an image focused from ``raw`` and return the refocused image product.
+
+    Parameters
+    ----------
+    raw : xarray.Dataset
+        The raw product the image was focused from.
+    image : xarray.Dataset
+        Its (uncorrected) image product; its pixels and magnitudes choose the scatterers.
+    refocus : callable
+        Focuses a raw product onto the same grid, as ``image`` was (e.g. ``mitsar.focus``
+        with ``autofocus=None``, or another back-projection focuser).
+    method : {"pga", "entropy"}
+    options : dict, optional
+        Fields of :class:`PGAOptions` or :class:`EntropyOptions`.
+    settings : PulseSettings
+        How the focuser formed its sum (aperture, windows, RVP, motion correction).
+
+    Returns
+    -------
+    xarray.Dataset
+        The refocused image with ``autofocus_phase`` (sweep) [rad] and attributes
+        ``autofocus_method``, ``autofocus_iterations``, ``autofocus_converged`` (PGA),
+        ``autofocus_entropy_before`` / ``autofocus_entropy_after`` (of the whole image,
+        nats), ``autofocus_scatterers``, ``autofocus_seconds`` and the method's options.
+    """
+    record = make_options(method, options)
+    start = time.perf_counter()
+    data = pulse_data(raw, settings)
+    values = np.asarray(image["image"].values)
+    magnitude = np.abs(values)
+    positions = np.asarray(image["position"].values).reshape(-1, 3)
+    used = 0
+    if method == "entropy" and record.domain == "image":
+        keep = np.argsort(magnitude.ravel())[::-1][: record.max_pixels]
+        points = positions[keep]
+        terms = contributions(data, points) * aperture_weights(data, points)
+        used = len(points)
+        phase, info = estimate_entropy(terms, record)
+    else:
+        chosen = select_scatterers(magnitude, record.scatterers, record.dynamic_range_db,
+                                   record.separation_cells)
+        if method == "pga":
+            phase, info = estimate_pga(data, positions[chosen], record)
+            used = info.pop("scatterers")
+        else:
+            lines = azimuth_lines(data, positions[chosen], oversample=record.oversample,
+                                  max_elements=record.max_elements)
+            used = lines.history.shape[1]
+            terms = (lines.kernel * lines.history[:, :, None]).reshape(len(lines.history), -1)
+            phase, info = estimate_entropy(terms, record)
+    corrected = refocus(correct_raw(raw, phase))
+    attrs = {"method": method, **info, "scatterers": int(used),
+             "entropy_before": image_entropy(values),
+             "entropy_after": image_entropy(corrected["image"].values),
+             "seconds": time.perf_counter() - start,
+             "options": {f.name: getattr(record, f.name) for f in fields(record)}}
+    return attach_phase(corrected, raw, phase, attrs)
+
