@@ -53,6 +53,8 @@ from mitsar.plots.products import (
     save_figure,
     target_marks,
 )
+from mitsar.report.html import RUN_RECORD, build_report
+from mitsar.report.run import run_experiment
 from mitsar.version import __version__
 
 __all__ = ["build_parser", "main"]
@@ -322,6 +324,25 @@ def cmd_rays(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_run(args: argparse.Namespace) -> int:
+    """``mitsar run``: everything an experiment asks for, and its report."""
+    _log(args, f"running {args.experiment} into {args.output} ...")
+    report = run_experiment(args.experiment, args.output, overrides=args.set,
+                            algorithms=args.algorithms, realisations=args.realisations,
+                            overwrite=args.overwrite, progress=not args.quiet)
+    record = json.loads((report.parent / RUN_RECORD).read_text())
+    for warning in record.get("warnings", []):
+        print(f"warning: {warning}", file=sys.stderr)
+    print(f"wrote {report}")
+    return 0
+
+
+def cmd_report(args: argparse.Namespace) -> int:
+    """``mitsar report``: rebuild the report of a run folder."""
+    print(f"wrote {build_report(args.folder)}")
+    return 0
+
+
 def cmd_ambiguity(args: argparse.Namespace) -> int:
     """``mitsar ambiguity``: gradient-method maps of one or more trajectories."""
     _log(args, f"ambiguity maps of {args.experiment} ...")
@@ -466,6 +487,23 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_argument("--rays", type=int, metavar="N", help="rays drawn from the path log")
     sub.add_argument("--sweep", type=int, default=0, help="sweep to trace (0)")
     _add_set(sub)
+
+    sub = _folder_command(commands, common, "run", cmd_run,
+                          "everything an experiment asks for, with an HTML report",
+                          "Simulate, trace rays, focus with every requested algorithm, measure, "
+                          "draw and (with -n) run a Monte Carlo; or run an ambiguity file. "
+                          "Writes the products, run.json and a self-contained report.html.",
+                          "EXPERIMENT.toml")
+    sub.add_argument("-a", "--algorithms", nargs="+", choices=ALGORITHMS,
+                     help="focusing algorithms (default: the experiment's [focus] algorithm)")
+    sub.add_argument("-n", "--realisations", type=int, default=0,
+                     help="Monte Carlo realisations over the background (0: none)")
+    _add_set(sub)
+    sub = commands.add_parser("report", parents=[common], help="rebuild a run's report.html",
+                              description="Write report.html of a 'mitsar run' folder again "
+                              "from its run.json.")
+    sub.add_argument("folder", metavar="DIR")
+    sub.set_defaults(func=cmd_report)
 
     sub = _folder_command(commands, common, "ambiguity", cmd_ambiguity,
                           "resolution and ambiguity maps of a trajectory",

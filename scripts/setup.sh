@@ -22,6 +22,17 @@ if ! have_llvm && [ -z "${DRJIT_LIBLLVM_PATH:-}" ]; then
   fi
 fi
 
+# 1b. A headless browser for the report tests (tests/test_report.py): Debian's
+#     chromium-headless-shell; without one those tests skip with the reason.
+if ! command -v chromium-headless-shell >/dev/null && ! command -v chromium >/dev/null; then
+  if command -v apt-get >/dev/null; then
+    echo "setup: installing chromium-headless-shell (renders the HTML reports in the tests)"
+    { as_root apt-get update -qq && as_root env DEBIAN_FRONTEND=noninteractive \
+        apt-get install -y -qq chromium-headless-shell >/dev/null; } \
+      || echo "setup: no headless browser (the report rendering tests will skip)" >&2
+  fi
+fi
+
 # 2. A virtual environment (Debian's python3 needs python3-venv for it).
 if [ ! -x "$venv/bin/python" ]; then
   if ! "$python" -m venv "$venv" 2>/dev/null; then

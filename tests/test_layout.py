@@ -23,6 +23,7 @@ RANKS = {
     "mitsar.quality": 7, "mitsar.plots": 7,
     "mitsar.experiment": 8,
     "mitsar.ambiguity": 9,
+    "mitsar.report": 9.5,
     "mitsar.cli": 10,
     "mitsar": 11,
 }

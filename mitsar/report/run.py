@@ -1,0 +1,248 @@
+"""``mitsar run``: everything an experiment asks for, into one folder with one report.
+
+:func:`run_experiment` takes an experiment file and, in an output folder:
+
+1. an **ambiguity** file (``[trajectories]`` / ``[ambiguity]``, ``docs/ambiguity.md``) runs the
+   gradient method (:func:`mitsar.ambiguity.run_ambiguity_experiment`) and reports its figures
+   and the trajectory comparison;
+2. any other experiment (``docs/experiments.md``) is **simulated** (``raw.nc``; the
+   range-compressed figure; true and navigation tracks when it has navigation errors), its
+   multipath **rays** drawn when it traces a scene with ``max_depth > 1``
+   (:func:`mitsar.experiment.rays.run_rays`), then **focused** with every requested algorithm
+   (``image_<algorithm>.nc`` and figures), **measured** at its target (IRW, PSLR, ISLR, with the
+   cuts), and optionally put through a **Monte Carlo** over background realisations;
+3. the run record ``run.json`` (configuration, metrics, figures, timings, seeds, versions) and
+   ``report.html`` (:func:`mitsar.report.html.build_report`) are written last.
+
+A step that cannot run for this experiment (an algorithm that refuses the track, a target
+outside the image) is reported as a warning in the record and the report, and the run goes on.
+Outputs are written atomically and never replace files unless ``overwrite``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import matplotlib.pyplot as plt
+
+from mitsar.ambiguity.run import run_ambiguity_experiment
+from mitsar.errors import MitsarError, ParameterError
+from mitsar.experiment import montecarlo
+from mitsar.experiment.loading import apply_overrides, experiment_from_dict, read_toml
+from mitsar.experiment.options import ALGORITHMS, Experiment
+from mitsar.experiment.rays import run_rays
+from mitsar.experiment.runs import run_focus, run_metrics, run_simulation
+from mitsar.io import check_writable, save, write_json
+from mitsar.plots import navigation as plots_navigation
+from mitsar.plots.products import (
+    beam_range_marks,
+    plot_cuts,
+    plot_image,
+    plot_range_compressed,
+    save_figure,
+    target_marks,
+)
+from mitsar.report.html import RUN_RECORD, build_report, provenance
+
+__all__ = ["run_experiment"]
+
+
+class _Run:
+    """The record being built, with a timer per step."""
+
+    def __init__(self, out: Path, overwrite: bool) -> None:
+        self.out, self.overwrite = out, overwrite
+        self.record: dict[str, Any] = {"steps": {}, "products": [], "figures": [],
+                                       "metrics": {}, "tables": [], "warnings": []}
+
+    def step(self, name: str, start: float) -> None:
+        self.record["steps"][name] = round(time.perf_counter() - start, 3)
+
+    def figure(self, figure: Any, file: str, title: str, caption: str = "") -> None:
+        save_figure(figure, self.out / file, overwrite=self.overwrite, dpi=110)
+        plt.close(figure)
+        self.record["figures"].append({"file": file, "title": title, "caption": caption})
+
+    def product(self, data: Any, file: str) -> None:
+        save(data, self.out / file, overwrite=self.overwrite)
+        self.record["products"].append(file)
+
+    def warn(self, message: str) -> None:
+        self.record["warnings"].append(message)
+
+
+def _is_ambiguity(document: dict[str, Any]) -> bool:
+    return "trajectories" in document or ("ambiguity" in document and "targets" not in document)
+
+
+def run_experiment(path: str | Path, out_dir: str | Path, *, overrides: Sequence[str] = (),
+                   algorithms: Sequence[str] | None = None, realisations: int = 0,
+                   overwrite: bool = False, progress: bool = False) -> Path:
+    """Run an experiment file completely and write its report (module docstring).
+
+    Parameters
+    ----------
+    path : path-like
+        An experiment or ambiguity TOML file.
+    out_dir : path-like
+        Output folder (created).
+    overrides : sequence of str
+        ``"key=value"`` changes (the CLI's ``--set``; experiments only).
+    algorithms : sequence of str, optional
+        Focusing algorithms (default: the experiment's ``[focus] algorithm``).
+    realisations : int
+        Monte Carlo realisations over the background (0: none).
+    overwrite : bool
+        Replace existing outputs.
+    progress : bool
+        Show progress bars.
+
+    Returns
+    -------
+    Path
+        ``report.html``.
+    """
+    path, out = Path(path), Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    check_writable(out / RUN_RECORD, overwrite)
+    document = read_toml(path)
+    run = _Run(out, overwrite)
+    if _is_ambiguity(document):
+        if overrides:
+            raise ParameterError(str(path), "--set", "no overrides for an ambiguity file "
+                                 "(edit the file)", list(overrides))
+        _ambiguity(run, path, document, progress)
+    else:
+        experiment = experiment_from_dict(apply_overrides(document, overrides, str(path)),
+                                          source=path)
+        _experiment(run, experiment, algorithms, realisations, progress)
+    run.record.setdefault("title", document.get("name") or path.stem)
+    run.record.setdefault("description", document.get("description", ""))
+    run.record["source"] = str(path.resolve())
+    write_json(run.record, out / RUN_RECORD, overwrite=overwrite)
+    return build_report(out)
+
+
+def _ambiguity(run: _Run, path: Path, document: dict[str, Any], progress: bool) -> None:
+    start = time.perf_counter()
+    summary = run_ambiguity_experiment(path, run.out / "ambiguity", overwrite=run.overwrite,
+                                       figures=True, progress=progress)
+    run.step("ambiguity", start)
+    run.record.update(kind="ambiguity", experiment=document, provenance=provenance())
+    overall = {name: entry["overall"] for name, entry in summary["trajectories"].items()}
+    keys = sorted({key for fractions in overall.values() for key in fractions})
+    run.record["tables"].append({
+        "title": f"Ambiguity: fractions of the surfaces (required resolution "
+                 f"{summary['required_resolution']})",
+        "header": ["trajectory"] + keys,
+        "rows": [[name] + [fractions.get(key, "") for key in keys]
+                 for name, fractions in overall.items()]})
+    for file in summary.get("files", []):
+        name = Path(file).name
+        relative = f"ambiguity/{name}"
+        if name.endswith(".png"):
+            run.record["figures"].append({"file": relative, "title": Path(name).stem,
+                                          "caption": "gradient-method map (docs/ambiguity.md)"})
+        else:
+            run.record["products"].append(relative)
+
+
+def _experiment(run: _Run, experiment: Experiment, algorithms: Sequence[str] | None,
+                realisations: int, progress: bool) -> None:
+    seeds = {"simulation": experiment.simulation.seed}
+    if experiment.navigation is not None:
+        seeds["navigation"] = experiment.navigation.seed
+    run.record.update(kind="scene" if experiment.scene is not None else "point targets",
+                      experiment=experiment.config, provenance=provenance(seeds))
+    # 1. simulate
+    start = time.perf_counter()
+    raw = run_simulation(experiment, progress=progress)
+    run.step("simulate", start)
+    run.product(raw, "raw.nc")
+    figure, ax = plt.subplots(figsize=(8, 5), layout="constrained")
+    plot_range_compressed(raw, ax=ax)
+    run.figure(figure, "range_compressed.png", "Range-compressed data",
+               "slant range across, slow time down (paper eq. 1, one FFT per sweep)")
+    if "true_platform_position" in raw.variables:
+        axes = plots_navigation.plot_tracks(raw)
+        run.figure(axes[0].figure, "tracks.png", "True and navigation track",
+                   "the echoes come from the true track; focusers know the navigation track")
+    # 2. rays of a traced multipath scene
+    if experiment.scene is not None and (experiment.simulation.max_depth or 1) > 1:
+        start = time.perf_counter()
+        summary = run_rays(experiment, run.out / "rays", overwrite=run.overwrite)
+        run.step("rays", start)
+        for name, file in summary["figures"].items():
+            run.record["figures"].append({"file": f"rays/{Path(file).name}",
+                                          "title": f"Rays: {name}",
+                                          "caption": "paper Figs. 6, 10, 11"})
+    # 3. focus and measure with every algorithm
+    chosen = list(algorithms) if algorithms else [experiment.focus.algorithm]
+    unknown = [a for a in chosen if a not in ALGORITHMS]
+    if unknown:
+        raise ParameterError("run", "algorithms", f"names among {ALGORITHMS}", unknown)
+    for algorithm in chosen:
+        _focus_and_measure(run, experiment, raw, algorithm, progress)
+    # 4. Monte Carlo
+    if realisations > 0:
+        start = time.perf_counter()
+        summary = montecarlo.run(experiment, realisations, chosen,
+                                 out_dir=run.out / "montecarlo", progress=progress)
+        run.step("montecarlo", start)
+        run.record["tables"].append(_montecarlo_table(summary, realisations))
+
+
+def _focus_and_measure(run: _Run, experiment: Experiment, raw: Any, algorithm: str,
+                       progress: bool) -> None:
+    options = dataclasses.replace(experiment.focus, algorithm=algorithm)
+    start = time.perf_counter()
+    try:
+        image = run_focus(raw, options, progress=progress)
+    except (ParameterError, MitsarError) as error:
+        run.warn(f"{algorithm}: not focused: {error}")
+        return
+    run.step(f"focus {algorithm}", start)
+    run.product(image, f"image_{algorithm}.nc")
+    figure, ax = plt.subplots(figsize=(7, 6), layout="constrained")
+    plot_image(image, ax=ax, marks=target_marks(image), range_marks=beam_range_marks(image))
+    run.figure(figure, f"image_{algorithm}.png", f"Image, {algorithm.upper()}",
+               f"{options.window} window, azimuth resolution "
+               f"{options.azimuth_resolution or 'whole beam'} m; dB re peak")
+    if not experiment.targets and experiment.metrics.target is None:
+        return
+    start = time.perf_counter()
+    try:
+        metrics = run_metrics(image)
+    except (ParameterError, MitsarError, ValueError) as error:
+        run.warn(f"{algorithm}: not measured: {error}")
+        run.record["metrics"][algorithm] = str(error)
+        return
+    run.step(f"metrics {algorithm}", start)
+    run.record["metrics"][algorithm] = metrics
+    for warning in metrics.get("warnings", []):
+        run.warn(f"{algorithm}: {warning}")
+    axes = plot_cuts(image, metrics)
+    run.figure(axes[0].figure, f"cuts_{algorithm}.png", f"Cuts, {algorithm.upper()}",
+               "range and azimuth cuts through the peak, IRW / PSLR / ISLR in the legends")
+
+
+def _montecarlo_table(summary: Any, realisations: int) -> dict[str, Any]:
+    rows = []
+    for algorithm in summary["algorithm"].values:
+        for direction in summary["direction"].values:
+            row = [f"{algorithm} {direction}"]
+            for metric in summary["metric"].values:
+                mean = float(summary["mean"].sel(algorithm=algorithm, direction=direction,
+                                                 metric=metric))
+                var = float(summary["variance"].sel(algorithm=algorithm, direction=direction,
+                                                    metric=metric))
+                row += [mean, var]
+            rows.append(row)
+    header = ["algorithm, cut"] + [f"{m} {s}" for m in summary["metric"].values
+                                   for s in ("mean", "variance")]
+    return {"title": f"Monte Carlo over {realisations} background realisations "
+            "(paper Tables 4-5)", "header": header, "rows": rows}
