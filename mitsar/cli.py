@@ -30,8 +30,13 @@ import matplotlib.pyplot as plt
 from mitsar.ambiguity.run import run_ambiguity_experiment
 from mitsar.errors import MitsarError
 from mitsar.experiment import montecarlo
-from mitsar.experiment.examples import example_path
-from mitsar.experiment.loading import focus_options_from_config, load_experiment, load_grid
+from mitsar.experiment.examples import example_path, examples_dir
+from mitsar.experiment.loading import (
+    focus_options_from_config,
+    load_experiment,
+    load_grid,
+    read_toml,
+)
 from mitsar.experiment.options import (
     ALGORITHMS,
     AUTOFOCUS_METHODS,
@@ -169,6 +174,7 @@ def format_metrics(metrics: dict[str, Any]) -> str:
                      f"{m['pslr_db']:>11.2f}{m['islr_db']:>11.2f}")
     if "islr_2d_db" in metrics:
         lines.append(f"2-D ISLR {metrics['islr_2d_db']:.2f} dB")
+    lines.extend(f"warning: {message}" for message in metrics.get("warnings", []))
     return "\n".join(lines)
 
 
@@ -366,7 +372,8 @@ def _folder_command(commands: Any, common: argparse.ArgumentParser, name: str, f
                     summary: str, description: str, metavar: str,
                     overwrite: bool = True) -> argparse.ArgumentParser:
     """A sub-command reading an experiment file and writing several files into a folder."""
-    sub = commands.add_parser(name, parents=[common], help=summary, description=description)
+    sub = commands.add_parser(name, parents=[common], help=summary, description=description,
+                              formatter_class=_HELP)
     sub.add_argument("experiment", metavar=metavar)
     sub.add_argument("-o", "--output", required=True, metavar="DIR", help="output folder")
     if overwrite:
@@ -379,11 +386,27 @@ def _file_command(commands: Any, common: argparse.ArgumentParser, name: str, fun
                   summary: str, description: str, argument: tuple[str, str],
                   output: str, output_required: bool = True) -> argparse.ArgumentParser:
     """A sub-command reading one file (``argument``: name, metavar) and writing ``output``."""
-    sub = commands.add_parser(name, parents=[common], help=summary, description=description)
+    sub = commands.add_parser(name, parents=[common], help=summary, description=description,
+                              formatter_class=_HELP)
     sub.add_argument(argument[0], metavar=argument[1])
     _add_output(sub, output, required=output_required)
     sub.set_defaults(func=func)
     return sub
+
+
+_HELP = argparse.ArgumentDefaultsHelpFormatter
+"""Sub-command help shows every option's default."""
+
+
+def demo_examples() -> list[str]:
+    """Bundled experiments the demo can run: point targets to measure (not ambiguity files)."""
+    names = []
+    for path in sorted(examples_dir().glob("*.toml")):
+        document = read_toml(path)
+        measurable = document.get("targets") or (document.get("metrics") or {}).get("target")
+        if measurable and "trajectories" not in document:
+            names.append(path.stem)
+    return names
 
 
 def _add_set(sub: argparse.ArgumentParser) -> None:
@@ -398,11 +421,14 @@ def build_parser() -> argparse.ArgumentParser:
         prog="mitsar", description="FMCW mm-wave SAR simulation and processing "
         "(Scannapieco et al. 2016). See docs/cli.md.")
     parser.add_argument("--version", action="version", version=f"mitsar {__version__}")
+    # Global options work before or after the sub-command: the sub-commands' copies default
+    # to SUPPRESS so that they do not reset what was given before the sub-command.
     common = argparse.ArgumentParser(add_help=False)
-    common.add_argument("--debug", action="store_true",
-                        help="show the full traceback on errors")
-    common.add_argument("-q", "--quiet", action="store_true",
-                        help="no progress bars or messages on stderr")
+    for owner, default in ((parser, False), (common, argparse.SUPPRESS)):
+        owner.add_argument("--debug", action="store_true", default=default,
+                           help="show the full traceback on errors")
+        owner.add_argument("-q", "--quiet", action="store_true", default=default,
+                           help="no progress bars or messages on stderr")
     commands = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
     sub = _file_command(commands, common, "simulate", cmd_simulate,
@@ -454,12 +480,13 @@ def build_parser() -> argparse.ArgumentParser:
 
     sub = commands.add_parser("demo", parents=[common], help="run the paper's point-target "
                               "experiment", description="Simulate, focus and measure the "
-                              "bundled paper experiment; write products, metrics and figures.")
+                              "bundled paper experiment; write products, metrics and figures.",
+                              formatter_class=_HELP)
     sub.add_argument("-o", "--output", default="mitsar-demo", metavar="DIR",
-                     help="output folder (default: mitsar-demo)")
+                     help="output folder")
     sub.add_argument("--overwrite", action="store_true", help="replace existing outputs")
-    sub.add_argument("--example", default="paper_point_target",
-                     help="bundled example to run (default: paper_point_target)")
+    sub.add_argument("--example", default="paper_point_target", choices=demo_examples(),
+                     help="bundled example with a point target to run")
     sub.set_defaults(func=cmd_demo)
 
     sub = _folder_command(commands, common, "montecarlo", cmd_montecarlo,
@@ -468,9 +495,9 @@ def build_parser() -> argparse.ArgumentParser:
                           "algorithm: mean and variance of IRW, PSLR, ISLR (paper Tables 4-5). "
                           "Interrupted runs resume from the record in the output folder.",
                           "EXPERIMENT.toml", overwrite=False)
-    sub.add_argument("-n", "--realisations", type=int, default=10, help="realisations (10)")
+    sub.add_argument("-n", "--realisations", type=int, default=10, help="realisations")
     sub.add_argument("-a", "--algorithms", nargs="+", choices=ALGORITHMS,
-                     default=list(ALGORITHMS), help="algorithms (default: all)")
+                     default=list(ALGORITHMS), help="algorithms")
     sub.add_argument("--restart", action="store_true",
                      help="discard a previous record in DIR instead of resuming it")
     sub.add_argument("--cuts", type=int, default=5, metavar="N",
@@ -485,7 +512,7 @@ def build_parser() -> argparse.ArgumentParser:
                           "only and with reflections, near range / centre scene / far range "
                           "marked.", "EXPERIMENT.toml")
     sub.add_argument("--rays", type=int, metavar="N", help="rays drawn from the path log")
-    sub.add_argument("--sweep", type=int, default=0, help="sweep to trace (0)")
+    sub.add_argument("--sweep", type=int, default=0, help="sweep to trace")
     _add_set(sub)
 
     sub = _folder_command(commands, common, "run", cmd_run,
@@ -501,7 +528,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_set(sub)
     sub = commands.add_parser("report", parents=[common], help="rebuild a run's report.html",
                               description="Write report.html of a 'mitsar run' folder again "
-                              "from its run.json.")
+                              "from its run.json.", formatter_class=_HELP)
     sub.add_argument("folder", metavar="DIR")
     sub.set_defaults(func=cmd_report)
 

@@ -8,7 +8,7 @@ import sys
 
 import pytest
 
-from mitsar.cli import main
+from mitsar.cli import build_parser, demo_examples, main
 from mitsar.experiment.examples import example_path
 from mitsar.experiment.loading import apply_overrides
 from mitsar.io import load
@@ -286,3 +286,17 @@ def test_set_overrides_experiment_keys(tmp_path):
                  str(tmp_path / "x.nc"), "-q", "--set", "trajectory.bogus=1"]) == 2
     assert main(["simulate", str(example_path("paper_point_target")), "-o",
                  str(tmp_path / "x.nc"), "-q", "--set", "noequals"]) == 2
+
+
+def test_global_options_before_or_after_the_command_and_defaults_in_help(capsys):
+    parser = build_parser()
+    for argv in (["-q", "focus", "a.nc", "-o", "b.nc"], ["focus", "a.nc", "-o", "b.nc", "-q"]):
+        assert parser.parse_args(argv).quiet is True
+    assert parser.parse_args(["focus", "a.nc", "-o", "b.nc"]).quiet is False
+    assert parser.parse_args(["--debug", "metrics", "i.nc"]).debug is True
+    with pytest.raises(SystemExit):
+        parser.parse_args(["montecarlo", "--help"])
+    assert "(default: 10)" in capsys.readouterr().out
+    # The demo offers only bundled experiments with a target to measure.
+    assert "paper_point_target" in demo_examples()
+    assert not {"ambiguity_control_volume", "dihedral_3d"} & set(demo_examples())
