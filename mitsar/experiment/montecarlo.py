@@ -164,10 +164,11 @@ def run(experiment: Any, realisations: int = 10,
             image = runs.run_focus(raw, options)
             try:
                 entry["metrics"][algorithm] = _measure(image, target, islr_extent)
-            except ValueError as error:
+            except (ValueError, MitsarError) as error:
                 # A realisation whose response cannot be measured (e.g. clutter filling a
-                # first null) is recorded as such, not retried forever on resume.
+                # first null) is recorded as such, not retried forever on resume, and said.
                 entry["failures"][algorithm] = str(error)
+                tqdm.write(f"montecarlo: seed {seed} {algorithm}: not measurable: {error}")
         records.append(entry)
         if record_path is not None:
             _write_atomic(record_path, {"fingerprint": fingerprint, "config": config,
@@ -176,6 +177,9 @@ def run(experiment: Any, realisations: int = 10,
     bar.close()
     by_seed = {r["seed"]: r for r in records}
     summary = summarise([by_seed[s] for s in seeds], algorithms)
+    failures = {f"{seed} {algorithm}": reason for seed in seeds
+                for algorithm, reason in by_seed[seed].get("failures", {}).items()}
+    summary.attrs["failures"] = json.dumps(failures)
     summary.attrs.update(product="montecarlo", fingerprint=fingerprint,
                          islr_extent=str(islr_extent), first_seed=first_seed,
                          mitsar_version=__version__,
@@ -254,6 +258,10 @@ def format_table(summary: xr.Dataset) -> str:
     missing = f"; {total - measured} not measurable, left out" if measured < total else ""
     lines.append(f"({total} realisations, seeds "
                  f"{int(summary['seed'].min())}..{int(summary['seed'].max())}{missing})")
+    failures = json.loads(summary.attrs.get("failures", "{}"))
+    if failures:
+        lines.append("not measurable (seed algorithm: reason):")
+        lines.extend(f"  {key}: {reason}" for key, reason in failures.items())
     return "\n".join(lines)
 
 

@@ -4,12 +4,25 @@ A grid is resolved against a raw product (it needs the track) and gives the worl
 every pixel, the image's dimension names and metre coordinates, and the directions of range and
 azimuth within the image (for impulse-response cuts).
 
+Two sets of directions are recorded. ``range_axis`` / ``azimuth_axis`` (with
+``range_resolution`` / ``azimuth_resolution``) describe the grid: on a slant grid its own axes,
+on a plane the projected line of sight and velocity. ``response_range_axis`` /
+``response_azimuth_axis`` (with ``response_range_resolution`` / ``response_azimuth_resolution``)
+are the axes of the focused impulse response itself (:func:`response_frame`): under squint its
+spectral support is the processed band of wavenumbers ``2f/c l`` for line-of-sight directions
+``l`` in the processed Doppler band, a rectangle rotated by the squint, so its range axis is the
+line of sight and its azimuth axis the direction normal to it in which the line of sight turns
+(Cumming & Wong 2005 §2.6 measure the response along those axes).
+
 * :class:`SlantGrid` (default): along-track coordinate ``a`` from the first sweep's antenna
   position along the mean velocity, and slant range ``r`` from the track, in the half-plane that
   holds the mean boresight. A pixel is at ``o + a v + r e`` (``e`` the boresight's component
   normal to the track). For a straight track the image of a point depends only on its
   (a, r), so any world point maps onto this grid by cylindrical coordinates
-  (:func:`equivalent_position`).
+  (:func:`equivalent_position`). By default it covers what the beam saw: the track's own
+  along-track extent and where every sweep's boresight meets the near and far slant ranges
+  (squint moves the illuminated strip along the track by ``r tan(squint)``; a curved track
+  moves it with the heading).
 * :class:`PlaneGrid`: ``origin + u axis_u + v axis_v`` (ground plane, a wall, ...).
 * :class:`PointsGrid`: any list of 3-D points.
 """
@@ -17,6 +30,7 @@ azimuth within the image (for impulse-response cuts).
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -58,6 +72,92 @@ def track_frame(raw: xr.Dataset) -> tuple[NDArray, NDArray, NDArray]:
     return origin, along, look
 
 
+def response_frame(line_of_sight: ArrayLike, turning: ArrayLike, range_resolution: float,
+                   transverse_resolution: float) -> dict[str, Any]:
+    """Range and azimuth axes of a focused point response in an image plane, and their cells.
+
+    The response's spectral support is the band of wavenumbers ``2f/c l`` swept by the line of
+    sight ``l`` over the processed aperture: width ``1/rho_r`` along ``l`` and ``1/rho_t`` along
+    the direction ``t`` in which ``l`` turns (Cumming & Wong 2005 §2.6; a rectangle rotated by
+    the squint). A 2-D image samples its projection onto the image plane, the parallelogram
+    spanned by the in-plane components ``L`` and ``T``; the response is ``sinc(L.x / rho_r)
+    sinc(T.x / rho_t)``. A cut is a pure sinc only along a direction normal to one of them: the
+    range cut runs normal to ``T``, the azimuth cut normal to ``L``, and one cell along each is
+    ``rho_r / |L.d_r|`` and ``rho_t / |T.d_a|``.
+
+    Parameters
+    ----------
+    line_of_sight, turning : array_like, shape (2,)
+        In-plane components of the unit line of sight ``l`` and of the unit turning direction
+        ``t`` (``t`` normal to ``l`` in 3-D), in the image's (dim0, dim1) metre coordinates.
+    range_resolution : float
+        Slant-range resolution ``c / 2B``, m.
+    transverse_resolution : float
+        Resolution normal to the line of sight, ``lambda / (2 dphi)`` for the processed angle
+        ``dphi``, m; ``rho cos(squint)`` for the along-track resolution ``rho``.
+
+    Returns
+    -------
+    dict
+        ``response_range_axis``, ``response_azimuth_axis`` (unit vectors, lists of 2 floats,
+        in (dim0, dim1)) and ``response_range_resolution``, ``response_azimuth_resolution`` (one
+        cell along each, m). Empty when the plane holds no range or no azimuth extent.
+    """
+    los = np.asarray(line_of_sight, dtype=float)
+    turn = np.asarray(turning, dtype=float)
+    los_norm, turn_norm = float(np.linalg.norm(los)), float(np.linalg.norm(turn))
+    if los_norm < 1e-6 or turn_norm < 1e-6:
+        return {}
+    d_range = np.array([-turn[1], turn[0]]) / turn_norm
+    d_range *= np.sign(d_range @ los) or 1.0
+    d_azimuth = np.array([-los[1], los[0]]) / los_norm
+    d_azimuth *= np.sign(d_azimuth @ turn) or 1.0
+    along_range, along_azimuth = abs(float(los @ d_range)), abs(float(turn @ d_azimuth))
+    if along_range < 1e-6 or along_azimuth < 1e-6:
+        return {}
+    return {"response_range_axis": d_range.tolist(),
+            "response_azimuth_axis": d_azimuth.tolist(),
+            "response_range_resolution": float(range_resolution / along_range),
+            "response_azimuth_resolution": float(transverse_resolution / along_azimuth)}
+
+
+def _centroid_sines(raw: xr.Dataset) -> NDArray[np.float64]:
+    """Doppler-centroid direction sine per sweep, ``v_hat . boresight`` (as the processors)."""
+    velocity = np.asarray(raw["platform_velocity"].values, dtype=float)
+    speed = np.linalg.norm(velocity, axis=-1)
+    boresight = np.asarray(raw["boresight"].values, dtype=float)
+    return np.einsum("si,si->s", boresight, velocity) / np.where(speed > 0, speed, 1.0)
+
+
+def _extend(values: NDArray[np.float64], low: float, high: float,
+            step: float) -> NDArray[np.float64]:
+    """``values`` (a uniform axis) extended by whole steps to cover ``[low, high]``."""
+    before = max(int(math.ceil((values[0] - low) / step - 1e-6)), 0)
+    after = max(int(math.ceil((high - values[-1]) / step - 1e-6)), 0)
+    return values[0] + step * np.arange(-before, values.size + after)
+
+
+def beam_along_track(raw: xr.Dataset, origin: NDArray, along: NDArray,
+                     slant_ranges: tuple[float, float]) -> tuple[float, float]:
+    """Along-track interval a slant grid needs to hold what the beam saw, m.
+
+    The track's own extent and, for every sweep, the along-track coordinate where its boresight
+    reaches the near and far slant ranges (distance from the track line): with squint angle
+    ``s`` the illuminated strip lies ``r tan(s)`` ahead of (or behind) the antenna, and on a
+    curved track it moves with the heading.
+    """
+    positions = np.asarray(raw["platform_position"].values, dtype=float)
+    boresight = np.asarray(raw["boresight"].values, dtype=float)
+    a_track = (positions - origin) @ along
+    normal = np.linalg.norm(boresight - np.outer(boresight @ along, along), axis=-1)
+    reach = np.where(normal > 1e-6, 1.0 / np.maximum(normal, 1e-6), 0.0)
+    ends = [a_track]
+    for r in slant_ranges:
+        ends.append(((positions + (r * reach)[:, None] * boresight) - origin) @ along)
+    stacked = np.concatenate(ends)
+    return float(stacked.min()), float(stacked.max())
+
+
 @dataclass(frozen=True)
 class SlantGrid:
     """Slant-range / along-track grid (see module docstring).
@@ -65,8 +165,11 @@ class SlantGrid:
     Parameters
     ----------
     along_track, slant_range : array_like or None
-        ``[start, stop, step]`` or increasing coordinates [m]; by default the whole track at
-        half the azimuth resolution and 0.5 m to ``max_range`` at half the range resolution.
+        ``[start, stop, step]`` or increasing coordinates [m]. By default slant range runs from
+        0.5 m to ``max_range`` at half the range resolution, and along track at half the azimuth
+        resolution over the track and where the boresight meets the first and last slant range
+        (:func:`beam_along_track`), aligned to the first sweep (``a = 0``): a squinted or curved
+        acquisition images what the beam saw without a hand-made grid.
     """
 
     along_track: Any = None
@@ -74,23 +177,29 @@ class SlantGrid:
 
     def resolve(self, raw: xr.Dataset, radar: Radar, azimuth_resolution: float) -> dict:
         origin, along, look = track_frame(raw)
-        positions = raw["platform_position"].values
-        if self.along_track is None:
-            extent = (positions[-1] - origin) @ along
-            a = np.arange(0.0, extent + 1e-9, azimuth_resolution / 2)
-        else:
-            a = axis_values(self.along_track, "along_track")
         if self.slant_range is None:
             r = np.arange(0.5, radar.max_range, radar.range_resolution / 2)
         else:
             r = axis_values(self.slant_range, "slant_range")
+        if self.along_track is None:
+            step = azimuth_resolution / 2
+            low, high = beam_along_track(raw, origin, along, (float(r[0]), float(r[-1])))
+            a = _extend(np.zeros(1), low, high, step)
+        else:
+            a = axis_values(self.along_track, "along_track")
         pixel = origin + a[:, None, None] * along + r[None, :, None] * look
+        # The response is the processed band seen at the Doppler-centroid squint (module doc).
+        sine = float(np.clip(np.mean(_centroid_sines(raw)), -0.999, 0.999))
+        cosine = math.sqrt(1.0 - sine * sine)
+        response = response_frame((sine, cosine), (cosine, -sine), radar.range_resolution,
+                                  azimuth_resolution * cosine)
         return {"dims": ("azimuth", "range"), "coords": {"azimuth": a, "range": r},
                 "position": pixel, "range_axis": (0.0, 1.0), "azimuth_axis": (1.0, 0.0),
                 "range_resolution": radar.range_resolution,
                 "azimuth_resolution": azimuth_resolution,
                 "attrs": {"grid_kind": "slant", "grid_origin": origin.tolist(),
-                          "grid_along_track": along.tolist(), "grid_look": look.tolist()}}
+                          "grid_along_track": along.tolist(), "grid_look": look.tolist(),
+                          **response}}
 
 
 @dataclass(frozen=True)
@@ -129,13 +238,41 @@ class PlaneGrid:
         vel_in_plane = np.array([velocity @ axis_v, velocity @ axis_u])
         los_norm = max(np.linalg.norm(los_in_plane), 1e-6)
         vel_norm = max(np.linalg.norm(vel_in_plane), 1e-6)
+        response = _plane_response(raw, centre, axis_v, axis_u, radar.range_resolution,
+                                   azimuth_resolution)
         return {"dims": ("v", "u"), "coords": {"v": v, "u": u}, "position": pixel,
                 "range_axis": tuple(los_in_plane / los_norm),
                 "azimuth_axis": tuple(vel_in_plane / vel_norm),
                 "range_resolution": radar.range_resolution / los_norm,
                 "azimuth_resolution": azimuth_resolution / vel_norm,
                 "attrs": {"grid_kind": "plane", "grid_origin": origin.tolist(),
-                          "grid_axis_u": axis_u.tolist(), "grid_axis_v": axis_v.tolist()}}
+                          "grid_axis_u": axis_u.tolist(), "grid_axis_v": axis_v.tolist(),
+                          **response}}
+
+
+def _plane_response(raw: xr.Dataset, centre: NDArray, axis0: NDArray, axis1: NDArray,
+                    range_resolution: float, azimuth_resolution: float) -> dict[str, Any]:
+    """:func:`response_frame` of a plane at ``centre``, seen from the aperture centre.
+
+    The aperture centre is the sweep whose direction sine to ``centre`` is nearest its Doppler
+    centroid (where the processed band is centred, for any track); the turning direction is the
+    velocity's component normal to the line of sight there.
+    """
+    positions = np.asarray(raw["platform_position"].values, dtype=float)
+    velocity = np.asarray(raw["platform_velocity"].values, dtype=float)
+    sight = centre - positions
+    sight /= np.maximum(np.linalg.norm(sight, axis=-1), 1e-12)[:, None]
+    speed = np.maximum(np.linalg.norm(velocity, axis=-1), 1e-12)
+    sines = np.einsum("si,si->s", sight, velocity) / speed
+    k = int(np.argmin(np.abs(sines - _centroid_sines(raw))))
+    los = sight[k]
+    turning = velocity[k] / speed[k] - sines[k] * los
+    cosine = float(np.linalg.norm(turning))
+    if cosine < 1e-6:
+        return {}
+    turning /= cosine
+    return response_frame((los @ axis0, los @ axis1), (turning @ axis0, turning @ axis1),
+                          range_resolution, azimuth_resolution * cosine)
 
 
 @dataclass(frozen=True)

@@ -23,10 +23,12 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from mitsar.errors import MitsarError, ParameterError
 from mitsar.quality.upsample import check_factor, upsample_cut
 
 __all__ = [
     "ISLR_EXTENTS",
+    "MeasurementError",
     "first_nulls",
     "irw",
     "islr_db",
@@ -42,6 +44,17 @@ __all__ = [
 #: infinite extent, i.e. the whole cut of a large chip (see :func:`measure_impulse_response`).
 ISLR_EXTENTS: dict[str, float] = {"paper": 5.0, "isce3": 11.0, "chip": math.inf, "inf": math.inf}
 
+#: How the ISLR extent is named in the Python API and on the command line (``mitsar metrics``).
+EXTENT_OPTION = "islr_extent (--islr-extent)"
+
+
+class MeasurementError(MitsarError, ValueError):
+    """A point-target response cannot be measured as asked (no nulls, no half-power points,
+    a peak on the search boundary, ...); the message says what to change.
+
+    A :class:`ValueError` as well, for callers that caught the plain errors of earlier versions.
+    """
+
 
 def parse_extent(islr_extent: str | float) -> float:
     """Sidelobe extent in cells either side of the peak (``inf`` for the whole cut)."""
@@ -55,30 +68,30 @@ def parse_extent(islr_extent: str | float) -> float:
     ):
         return float(islr_extent)
     allowed = ", ".join(repr(name) for name in ISLR_EXTENTS)
-    raise ValueError(
-        f"islr_extent must be one of {allowed} or a positive number of cells; got {islr_extent!r}"
-    )
+    raise ParameterError("metrics", EXTENT_OPTION,
+                         f"one of {allowed} or a positive number of cells", islr_extent)
 
 
 def _as_power(cut: ArrayLike) -> NDArray[np.float64]:
     """Power samples from a complex amplitude cut or a real non-negative power cut."""
     x = np.asarray(cut)
     if x.ndim != 1 or x.size < 5:
-        raise ValueError(f"cut must be 1-D with at least 5 samples; got shape {x.shape}")
+        raise ParameterError("metrics", "cut", "a 1-D cut of at least 5 samples", x.shape)
     if np.iscomplexobj(x):
         return np.abs(x) ** 2
     p = x.astype(float)
     if np.any(p < 0):
-        raise ValueError(
-            "a real cut is taken as power and must be non-negative; pass complex amplitude "
-            "(e.g. cut.astype(complex)) for a real-valued amplitude"
-        )
+        raise ParameterError(
+            "metrics", "cut", "complex amplitude, or real power that is non-negative (pass "
+            "cut.astype(complex) for a real-valued amplitude)", f"{int(np.sum(p < 0))} negative "
+            "samples")
     return p
 
 
 def _check_spacing(spacing_cells: float) -> float:
     if not (np.isfinite(spacing_cells) and spacing_cells > 0):
-        raise ValueError(f"spacing_cells must be positive and finite; got {spacing_cells!r}")
+        raise ParameterError("metrics", "spacing_cells", "a positive finite number of "
+                             "resolution cells per sample", spacing_cells)
     return float(spacing_cells)
 
 
@@ -107,9 +120,10 @@ def _null_indices(p: NDArray[np.float64], k: int) -> tuple[int, int]:
     rising_left = np.flatnonzero(np.diff(p[k::-1]) >= 0.0)
     if rising_right.size == 0 or rising_left.size == 0:
         side = "right" if rising_right.size == 0 else "left"
-        raise ValueError(
+        raise MeasurementError(
             f"no first null on the {side} of the peak: the cut is too short or does not hold a "
-            "point-target response"
+            "point-target response (clutter or a neighbour filling the null); measure a longer "
+            "cut (chip_cells, a larger image grid) or check the target position"
         )
     return k - int(rising_left[0]), k + int(rising_right[0])
 
@@ -130,7 +144,11 @@ def _half_power_crossings(p: NDArray[np.float64], k: int, half: float) -> tuple[
     right_hits = np.flatnonzero(below[k:])
     left_hits = np.flatnonzero(below[k::-1])
     if right_hits.size == 0 or left_hits.size == 0:
-        raise ValueError("the cut does not fall to half power on both sides of the peak")
+        raise MeasurementError(
+            "the cut does not fall to half power on both sides of the peak (a neighbour or "
+            "clutter as bright as half the peak next to it, or a cut shorter than the main lobe); "
+            "check the target position or enlarge the image grid around it"
+        )
     j = k + int(right_hits[0])
     right = (j - 1) + (p[j - 1] - half) / (p[j - 1] - p[j])
     i = k - int(left_hits[0])
@@ -261,7 +279,12 @@ def _islr_from(p: NDArray[np.float64], k: int, centre: float, extent_samples: fl
     start = max(centre - extent_samples, 0.0)
     stop = min(centre + extent_samples, p.size - 1.0)
     if start > left or stop < right:
-        raise ValueError("the ISLR extent ends inside the main lobe (null to null); widen it")
+        inside = max(centre - left, right - centre)
+        raise MeasurementError(
+            f"the ISLR extent ends inside the main lobe (null to null, up to {inside:.0f} "
+            f"samples from the peak, the extent reaches {min(centre - start, stop - centre):.0f})"
+            f": widen {EXTENT_OPTION}, or give a longer cut"
+        )
     cum = _cumulative(p)
     main = _energy(cum, left, right)
     total = _energy(cum, start, stop)
@@ -303,7 +326,8 @@ def measure_cut(
     factor = check_factor(upsample)
     if factor > 1:
         if not np.iscomplexobj(np.asarray(cut)):
-            raise ValueError("upsample > 1 needs a complex amplitude cut, not a power cut")
+            raise ParameterError("measure_cut", "upsample", "1 for a power cut (upsampling "
+                                 "needs complex amplitude)", upsample)
         cut = upsample_cut(cut, factor, band=spacing)
         spacing /= factor
     p = _as_power(cut)

@@ -17,6 +17,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import fft as sp_fft
 
+from mitsar.errors import ParameterError
+
 __all__ = ["band_fill_db", "check_factor", "upsample_chip", "upsample_cut"]
 
 
@@ -49,15 +51,17 @@ def _baseband(x: NDArray[np.complex128]) -> NDArray[np.complex128]:
 
 
 def check_factor(factor: int) -> int:
-    """``factor`` as an int, or ValueError unless it is a positive integer."""
+    """``factor`` as an int; :class:`~mitsar.errors.ParameterError` unless a positive integer."""
     if isinstance(factor, bool) or int(factor) != factor or factor < 1:
-        raise ValueError(f"upsampling factor must be a positive integer; got {factor!r}")
+        raise ParameterError("metrics", "upsample", "a positive integer upsampling factor",
+                             factor)
     return int(factor)
 
 
 def _check_band(band: float | None) -> float | None:
     if band is not None and not (np.isfinite(band) and band > 0):
-        raise ValueError(f"band must be positive (fraction of the sampling rate); got {band!r}")
+        raise ParameterError("upsample", "band", "a positive fraction of the sampling rate",
+                             band)
     return None if band is None else float(band)
 
 
@@ -164,7 +168,7 @@ def upsample_cut(
     """
     x = np.asarray(cut, dtype=complex)
     if x.ndim != 1 or x.size < 4:
-        raise ValueError(f"cut must be 1-D with at least 4 samples; got shape {x.shape}")
+        raise ParameterError("upsample_cut", "cut", "a 1-D cut of at least 4 samples", x.shape)
     return _upsample(x, factor, (band,))
 
 
@@ -202,8 +206,9 @@ def upsample_chip(
     """
     x = np.asarray(chip, dtype=complex)
     if x.ndim != 2 or min(x.shape) < 4:
-        raise ValueError(f"chip must be 2-D with at least 4 samples per axis; got shape {x.shape}")
+        raise ParameterError("upsample_chip", "chip", "a 2-D chip of at least 4 samples per "
+                             "axis", x.shape)
     bands = tuple(band) if isinstance(band, tuple | list) else (band, band)
     if len(bands) != 2:
-        raise ValueError(f"band must be a number or one per axis; got {band!r}")
+        raise ParameterError("upsample_chip", "band", "a number or one per axis", band)
     return _upsample(x, factor, bands)
