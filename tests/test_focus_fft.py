@@ -230,6 +230,8 @@ def _accelerating_raw():
 
 @pytest.mark.parametrize("make", [_curved_raw, _accelerating_raw])
 def test_curved_or_accelerating_tracks_are_refused_and_bpa_focuses_them(make):
+    """Without motion compensation (``motion_compensation=False``) the frequency-domain
+    algorithms refuse a curved or accelerating track and point to BPA, which focuses it."""
     raw = make()
     target = np.array([15.0, 8.0, 0.0])
     grid = PlaneGrid(origin=target, axis_u=[1, 0, 0], axis_v=[0, 1, 0], u=[-0.3, 0.3, 0.01],
@@ -237,14 +239,36 @@ def test_curved_or_accelerating_tracks_are_refused_and_bpa_focuses_them(make):
     slant = SlantGrid(along_track=[0.0, 0.5, 0.02], slant_range=[7.5, 8.5, 0.02])
     for algorithm in FD:
         with pytest.raises(ParameterError, match="bpa"):
-            mitsar.focus(raw, algorithm=algorithm, grid=slant, azimuth_resolution=RHO)
+            mitsar.focus(raw, algorithm=algorithm, grid=slant, azimuth_resolution=RHO,
+                         motion_compensation=False)
         stripped = raw.copy()
         stripped.attrs.pop("trajectory_straight")  # the geometric check alone also refuses
         with pytest.raises(ParameterError, match="straight|constant|spacing"):
-            mitsar.focus(stripped, algorithm=algorithm, grid=slant, azimuth_resolution=RHO)
+            mitsar.focus(stripped, algorithm=algorithm, grid=slant, azimuth_resolution=RHO,
+                         motion_compensation=False)
     image = mitsar.focus(raw, grid=grid, azimuth_resolution=RHO)
     metrics = measure_impulse_response(image, target, islr_extent=2)
     assert metrics["peak_offset_m"] < 0.1 * RADAR.range_resolution
+
+
+@pytest.mark.parametrize("make", [_curved_raw, _accelerating_raw])
+@pytest.mark.parametrize("algorithm", FD)
+def test_curved_or_accelerating_tracks_are_motion_compensated(make, algorithm):
+    """By default the same tracks are compensated to the fitted line (4.3 mm off it for the
+    arc; the accelerating one resampled along track): the target focuses where it is, with the
+    rect closed form (0.886 cells, -13.26 dB; 0.02 cells and 0.3 dB as in test_mocomp.py)."""
+    raw = make()
+    target = np.array([15.0, 8.0, 0.0])
+    origin = raw["platform_position"].values[0]
+    slant = SlantGrid(along_track=[target[0] - origin[0] - 0.6, target[0] - origin[0] + 0.6,
+                                   0.01], slant_range=[7.4, 8.6, 0.01])
+    image = mitsar.focus(raw, algorithm=algorithm, grid=slant, azimuth_resolution=RHO)
+    assert image.attrs["motion_compensation"] == 1
+    metrics = measure_impulse_response(image, equivalent_position(image, target))
+    assert metrics["peak_offset_m"] < 0.1 * RADAR.range_resolution
+    for direction in ("range", "azimuth"):
+        assert metrics[direction]["irw_cells"] == pytest.approx(0.886, abs=0.02), direction
+        assert metrics[direction]["pslr_db"] == pytest.approx(-13.26, abs=0.3), direction
 
 
 def test_plane_grids_are_refused_with_a_pointer_to_bpa():

@@ -61,6 +61,9 @@ class ReferenceLine:
         Unit vector along the line.
     spacing : float
         Along-track distance between sweeps [m].
+    along_uniform : ndarray (sweeps,)
+        Along-line coordinate of every reference position [m] (same origin as
+        ``along_recorded``).
     positions : ndarray (sweeps, 3)
         Reference antenna positions [m].
     along_recorded : ndarray (sweeps,)
@@ -72,6 +75,7 @@ class ReferenceLine:
     origin: NDArray[np.float64]
     along: NDArray[np.float64]
     spacing: float
+    along_uniform: NDArray[np.float64]
     positions: NDArray[np.float64]
     along_recorded: NDArray[np.float64]
     deviation: NDArray[np.float64]
@@ -102,20 +106,22 @@ def reference_line(raw: xr.Dataset) -> ReferenceLine:
         raise _refuse("raw.sweep", "at least 8 sweeps", sweeps)
     index = np.arange(sweeps)
     slope, intercept = np.polyfit(index, positions, 1)  # per axis: p = intercept + k slope
-    spacing = float(np.linalg.norm(slope))
-    if not spacing > 0:
+    if not np.linalg.norm(slope) > 0:
         raise _refuse("raw.platform_position", "a moving platform", "no net motion")
-    along = slope / spacing
+    along = slope / np.linalg.norm(slope)
     coordinate = (positions - intercept) @ along
     if np.any(np.diff(coordinate) <= 0):
         raise _refuse("raw.platform_position", "a platform advancing along the track in every "
                       "sweep", "it stops or turns back")
-    reference = intercept + np.outer(index * spacing, along)
+    uniform = np.linspace(coordinate[0], coordinate[-1], sweeps)
+    spacing = float(uniform[1] - uniform[0])
+    reference = intercept + np.outer(uniform, along)
     # Cross-track deviation at the reference along-track positions (after resampling).
     cross = positions - intercept - np.outer(coordinate, along)
-    deviation = CubicSpline(coordinate, cross, axis=0)(index * spacing)
+    deviation = CubicSpline(coordinate, cross, axis=0)(uniform)
     return ReferenceLine(origin=reference[0], along=along, spacing=spacing,
-                         positions=reference, along_recorded=coordinate, deviation=deviation)
+                         along_uniform=uniform, positions=reference, along_recorded=coordinate,
+                         deviation=deviation)
 
 
 def deviation_limit(radar: Radar, half_width: float) -> float:
@@ -172,7 +178,7 @@ def compensate(raw: xr.Dataset, reference: xr.Dataset, line: ReferenceLine, rada
                       "more)", f"{deviation * 100:.3g} cm")
     samples = np.asarray(raw["raw"].values, dtype=complex)
     # 2. Along-track resampling onto the uniform positions, carrier of the centroid removed.
-    uniform = np.arange(len(samples)) * line.spacing
+    uniform = line.along_uniform
     resampled = bool(np.abs(line.along_recorded - uniform).max() > radar.wavelength / 64)
     if resampled:
         centroid = float(np.mean(centroid_sines(raw)))
@@ -183,8 +189,8 @@ def compensate(raw: xr.Dataset, reference: xr.Dataset, line: ReferenceLine, rada
     # 3.-4. Delay errors of the points abeam of each sweep, from the grid's mid-azimuth row.
     row = np.asarray(layout["position"], dtype=float)
     row = row[row.shape[0] // 2]
-    abeam = row[None, :, :] + ((uniform - (row[0] - line.origin) @ line.along)[:, None, None]
-                               * line.along)
+    row_along = uniform[0] + (row[0] - line.origin) @ line.along
+    abeam = row[None, :, :] + (uniform - row_along)[:, None, None] * line.along
     actual = line.positions + line.deviation
     actual_velocity = np.gradient(actual, axis=0) * radar.prf
     to_actual = abeam - actual[:, None, :]
