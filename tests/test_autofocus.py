@@ -144,7 +144,10 @@ def whole_track():
 def _measure_whole_track(image):
     # The image's nominal azimuth cell is the whole beam's (5 mm); the track limits the
     # aperture to 0.4 m, so one cell is lambda R / (2 L) = 32 mm.
-    image.attrs["azimuth_resolution"] = RADAR.wavelength * SLANT / (2 * 0.4)
+    cell = RADAR.wavelength * SLANT / (2 * 0.4)
+    image.attrs["azimuth_resolution"] = cell
+    if "response_azimuth_resolution" in image.attrs:  # broadside: the response's own cell
+        image.attrs["response_azimuth_resolution"] = cell
     return measure_impulse_response(image, TARGET, chip_cells=5.0)
 
 

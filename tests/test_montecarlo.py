@@ -164,3 +164,23 @@ def test_runs_resume_from_disk_and_refuse_a_changed_configuration(tmp_path, monk
         montecarlo.run_montecarlo(path, 3, ["rda"], out)
     fresh = montecarlo.run_montecarlo(path, 1, ["rda"], out, resume=False)
     assert list(fresh["seed"].values) == [11]
+
+
+def test_tables_print_the_papers_values_beside_ours(levels):
+    """The -20 and -10 dB runs print paper Tables 4 and 5 (the WDA rows) below ours; the bundled
+    -10 dB experiment is the -20 dB one with the stronger background."""
+    from mitsar.experiment.examples import example_path
+    from mitsar.experiment.loading import load_experiment
+    from mitsar.experiment.paper import PAPER_TABLES, paper_table
+
+    for level, number in ((-20.0, 4), (-10.0, 5)):
+        table = montecarlo.format_table(levels[level])
+        assert f"paper Table {number}" in table
+        wda = PAPER_TABLES[level]["wda"]["azimuth"]["pslr_db"][0]
+        assert f"{wda:11.3f}" in table
+    assert paper_table(-15.0) is None
+    strong = load_experiment(example_path("paper_point_target_10db"))
+    weak = load_experiment(example_path("paper_point_target"))
+    assert strong.background.cell_rcs_db == -10.0 and weak.background.cell_rcs_db == -20.0
+    assert strong.trajectory.describe() == weak.trajectory.describe()
+    assert strong.targets == weak.targets

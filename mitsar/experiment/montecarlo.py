@@ -37,6 +37,7 @@ from mitsar.errors import MitsarError, ParameterError
 from mitsar.experiment import runs
 from mitsar.experiment.loading import load_experiment
 from mitsar.experiment.options import Experiment
+from mitsar.experiment.paper import paper_table
 from mitsar.focus.dispatch import ALGORITHMS
 from mitsar.focus.grid import equivalent_position
 from mitsar.io import save
@@ -184,6 +185,8 @@ def run(experiment: Any, realisations: int = 10,
                          islr_extent=str(islr_extent), first_seed=first_seed,
                          mitsar_version=__version__,
                          experiment=json.dumps(experiment.config))
+    if experiment.background is not None:
+        summary.attrs["background_cell_rcs_db"] = float(experiment.background.cell_rcs_db)
     if out_dir is not None:
         save(summary, Path(out_dir) / SUMMARY_FILE, overwrite=True)
         table = format_table(summary)
@@ -237,7 +240,8 @@ def format_table(summary: xr.Dataset) -> str:
     """The summary as a text table in the layout of paper Tables 4-5.
 
     One block per algorithm, first row range, second azimuth; columns IRW (cells), PSLR (dB),
-    ISLR (dB), each mean and variance.
+    ISLR (dB), each mean and variance. For a -20 or -10 dB background the paper's Table 4 or 5
+    (:mod:`mitsar.experiment.paper`) follows in the same layout.
     """
     lines = [f"{'':6s}{'':8s}{'IRW (cells)':>22s}{'PSLR (dB)':>22s}{'ISLR (dB)':>22s}",
              f"{'':14s}" + "".join(f"{'mean':>11s}{'var':>11s}" for _ in METRICS)]
@@ -253,6 +257,20 @@ def format_table(summary: xr.Dataset) -> str:
                                                  else f"{'-':>11s}"))
             name = str(algorithm).upper() if direction == "range" else ""
             lines.append(f"{name:6s}{direction:8s}" + "".join(cells))
+    paper = paper_table(summary.attrs.get("background_cell_rcs_db"))
+    if paper is not None:
+        number = 4 if summary.attrs["background_cell_rcs_db"] == -20.0 else 5
+        lines.append(f"paper Table {number} "
+                     f"({summary.attrs['background_cell_rcs_db']:g} dB background):")
+        for algorithm in summary["algorithm"].values:
+            if str(algorithm) not in paper:
+                continue
+            for direction in DIRECTIONS:
+                cells = "".join(f"{paper[str(algorithm)][direction][metric][0]:11.3f}"
+                                f"{paper[str(algorithm)][direction][metric][1]:11.3f}"
+                                for metric in METRICS)
+                name = str(algorithm).upper() if direction == "range" else ""
+                lines.append(f"{name:6s}{direction:8s}" + cells)
     total = int(summary.sizes["realisation"])
     measured = int(summary["count"].min())
     missing = f"; {total - measured} not measurable, left out" if measured < total else ""
