@@ -7,7 +7,8 @@
    and the trajectory comparison;
 2. any other experiment (``docs/experiments.md``) is **simulated** (``raw.nc``; the
    range-compressed figure; true and navigation tracks when it has navigation errors), its
-   multipath **rays** drawn when it traces a scene with ``max_depth > 1``
+   beam's **footprint** on a scene (paper Figs. 12, 14), its multipath **rays** drawn when it
+   traces a scene with ``max_depth > 1``
    (:func:`mitsar.experiment.rays.run_rays`), then **focused** with every requested algorithm
    (``image_<algorithm>.nc`` and figures), **measured** at its target (IRW, PSLR, ISLR, with the
    cuts), and optionally put through a **Monte Carlo** over background realisations;
@@ -38,6 +39,7 @@ from mitsar.experiment.rays import run_rays
 from mitsar.experiment.runs import run_focus, run_metrics, run_simulation
 from mitsar.io import check_writable, save, write_json
 from mitsar.plots import navigation as plots_navigation
+from mitsar.plots.footprint import plot_footprint, scene_range_marks
 from mitsar.plots.products import (
     beam_range_marks,
     plot_cuts,
@@ -47,6 +49,7 @@ from mitsar.plots.products import (
     target_marks,
 )
 from mitsar.report.html import RUN_RECORD, build_report, provenance
+from mitsar.scene import load_scene
 
 __all__ = ["run_experiment"]
 
@@ -171,6 +174,13 @@ def _experiment(run: _Run, experiment: Experiment, algorithms: Sequence[str] | N
         axes = plots_navigation.plot_tracks(raw)
         run.figure(axes[0].figure, "tracks.png", "True and navigation track",
                    "the echoes come from the true track; focusers know the navigation track")
+    scene = None
+    if experiment.scene is not None:
+        scene = load_scene(experiment.scene)
+        run.figure(plot_footprint(scene, raw, title=f"beam footprint: {experiment.scene}"),
+                   "footprint.png", "Beam footprint",
+                   "first hits of rays inside the nominal beam at the first, middle and last "
+                   "sweep, surfaces in grey (paper Figs. 12, 14)")
     # 2. rays of a traced multipath scene
     if experiment.scene is not None and (experiment.simulation.max_depth or 1) > 1:
         start = time.perf_counter()
@@ -186,7 +196,7 @@ def _experiment(run: _Run, experiment: Experiment, algorithms: Sequence[str] | N
     if unknown:
         raise ParameterError("run", "algorithms", f"names among {ALGORITHMS}", unknown)
     for algorithm in chosen:
-        _focus_and_measure(run, experiment, raw, algorithm, progress)
+        _focus_and_measure(run, experiment, raw, algorithm, progress, scene)
     # 4. Monte Carlo
     if realisations > 0:
         start = time.perf_counter()
@@ -197,7 +207,7 @@ def _experiment(run: _Run, experiment: Experiment, algorithms: Sequence[str] | N
 
 
 def _focus_and_measure(run: _Run, experiment: Experiment, raw: Any, algorithm: str,
-                       progress: bool) -> None:
+                       progress: bool, scene: Any = None) -> None:
     options = dataclasses.replace(experiment.focus, algorithm=algorithm)
     start = time.perf_counter()
     try:
@@ -208,7 +218,9 @@ def _focus_and_measure(run: _Run, experiment: Experiment, raw: Any, algorithm: s
     run.step(f"focus {algorithm}", start)
     run.product(image, f"image_{algorithm}.nc")
     figure, ax = plt.subplots(figsize=(7, 6), layout="constrained")
-    plot_image(image, ax=ax, marks=target_marks(image), range_marks=beam_range_marks(image))
+    marks = (beam_range_marks(image) if scene is None
+             else scene_range_marks(image, raw, scene))
+    plot_image(image, ax=ax, marks=target_marks(image), range_marks=marks)
     run.figure(figure, f"image_{algorithm}.png", f"Image, {algorithm.upper()}",
                f"{options.window} window, azimuth resolution "
                f"{options.azimuth_resolution or 'whole beam'} m; dB re peak")
