@@ -54,9 +54,13 @@ def test_report_of_a_run_folder_and_its_errors(tmp_path):
     missing figure or record is a clear error."""
     out = tmp_path / "run"
     assert main(["run", str(example_path("paper_point_target")), "-o", str(out), "-q",
-                 "-a", "bpa", "wda", "--set", "trajectory.duration=0.8"]) == 0
+                 "-a", "bpa", "wda", "-n", "2", "--set", "trajectory.duration=0.8"]) == 0
     record = json.loads((out / RUN_RECORD).read_text())
     assert set(record["metrics"]) == {"bpa", "wda"}
+    table = record["tables"][0]
+    assert [row[0] for row in table["rows"]][-1] == "paper: wda azimuth"  # Table 4 beside ours
+    assert {"background.png", "montecarlo/cuts_wda.png"} <= {f["file"]
+                                                             for f in record["figures"]}
     page = (out / "report.html").read_text()
     assert "Image quality" in page and page.count("<figure>") == len(record["figures"])
     assert record["experiment"]["trajectory"]["duration"] == 0.8

@@ -27,6 +27,7 @@ from mitsar.plots.rays import (
     plot_rays_3d,
 )
 from mitsar.raw.traced import trace, trace_paths
+from mitsar.scene import load_scene, sample_surface_points
 
 __all__ = ["run_rays"]
 
@@ -85,7 +86,10 @@ def run_rays(experiment_path: str | Path | Experiment, out: str | Path,
         fig = figure_ray_geometry_2d(paths, bounds=bounds, title=name)
         figures["rays"] = save_figure(fig, out / "rays_2d.png", overwrite=overwrite, dpi=130)
     else:
-        ax = plot_rays_3d(paths, every=max(1, len(paths["path"]) // 150))
+        box = np.ptp(paths["end"].values[paths["hit"].values], axis=0).max()
+        surfaces = sample_surface_points(load_scene(exp.scene), max(box / 50.0, 0.01))
+        ax = plot_rays_3d(paths, every=max(1, len(paths["path"]) // 150),
+                          surfaces=surfaces.positions)
         ax.set_title(f"ray geometry: {name}")
         figures["rays"] = save_figure(ax.figure, out / "rays_3d.png", overwrite=overwrite,
                                       dpi=130)

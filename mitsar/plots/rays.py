@@ -161,12 +161,13 @@ def figure_ray_geometry_2d(paths: xr.Dataset, *, bounds: Sequence[float] | None 
 
 
 def plot_rays_3d(paths: xr.Dataset, ax: Any = None, *, every: int = 1,
-                 escape: float | None = None) -> Any:
+                 escape: float | None = None, surfaces: NDArray | None = None) -> Any:
     """Rays of a path log in 3D: segments by number of reflections, reflection points as blue
-    crosses, the antenna as a black dot (paper Fig. 6).
+    crosses, the antenna as a black dot, the scene's surfaces as grey points (paper Fig. 6).
 
     Segments that leave the scene are drawn dotted over ``escape`` metres (default: a third of
     the size of the box holding the hits and the antenna); the axes frame that box.
+    ``surfaces`` (N, 3) [m] are points on the scene's surfaces; those inside the box are drawn.
     """
     ax = _axes(ax, projection="3d", figsize=(7, 6))
     start, end = paths["start"].values, paths["end"].values
@@ -195,6 +196,10 @@ def plot_rays_3d(paths: xr.Dataset, ax: Any = None, *, every: int = 1,
         ax.scatter(*points.T, marker="x", color="tab:blue", s=12, label="reflection points")
     ax.scatter(*tx, color="k", s=40, label="antenna")
     margin = 0.05 * float(np.max(hi - lo)) + 0.1
+    if surfaces is not None and len(surfaces):
+        inside = np.all((surfaces >= lo - margin) & (surfaces <= hi + margin), axis=1)
+        ax.scatter(*np.asarray(surfaces)[inside].T, s=1, c="0.75", depthshade=False,
+                   label="surfaces")
     ax.set_xlim(lo[0] - margin, hi[0] + margin)
     ax.set_ylim(lo[1] - margin, hi[1] + margin)
     ax.set_zlim(lo[2] - margin, hi[2] + margin)
