@@ -13,6 +13,7 @@ from mitsar.errors import ParameterError
 from mitsar.focus.aperture import aperture_half_width
 from mitsar.focus.autofocus import PulseSettings, make_options, run_autofocus
 from mitsar.focus.bpa import focus_bpa
+from mitsar.focus.ffbp import focus_ffbp
 from mitsar.focus.frequency_domain import focus_frequency_domain
 from mitsar.focus.grid import Grid, SlantGrid, from_dict
 from mitsar.focus.image import make_image_product
@@ -23,7 +24,7 @@ from mitsar.focus.windows import WINDOWS
 from mitsar.model.radar import Radar
 from mitsar.raw.product import radar_of
 
-ALGORITHMS = ("bpa", "rda", "wda", "fsa")
+ALGORITHMS = ("bpa", "rda", "wda", "fsa", "ffbp")
 """Names of the focusing algorithms."""
 
 
@@ -41,8 +42,9 @@ def focus(raw: xr.Dataset, algorithm: str = "bpa", grid: Grid | dict | None = No
     ----------
     raw : xarray.Dataset
         Raw product (:mod:`mitsar.raw.product`).
-    algorithm : {"bpa", "rda", "wda", "fsa"}
-        Focusing algorithm: back-projection (any trajectory, any grid) or the frequency-domain
+    algorithm : {"bpa", "rda", "wda", "fsa", "ffbp"}
+        Focusing algorithm: back-projection (any trajectory, any grid), its fast factorised
+        form ("ffbp", any trajectory, any grid; :mod:`mitsar.focus.ffbp`) or the frequency-domain
         range-Doppler, wavenumber-domain and frequency-scaling algorithms (straight track at
         constant velocity, slant grids only; see ``docs/focusing.md``).
     grid : SlantGrid, PlaneGrid, PointsGrid, dict or None
@@ -65,7 +67,9 @@ def focus(raw: xr.Dataset, algorithm: str = "bpa", grid: Grid | dict | None = No
         Pixels per kernel launch (memory bound); default 2^20, or 2^16 with a progress bar.
     algorithm_options : dict, optional
         Options of the frequency-domain algorithms (``rda``: ``src``; ``wda``: ``gate_cells``;
-        ``fsa``: ``upsample``, ``check_aliasing``, ``src``); see ``docs/focusing.md``.
+        ``fsa``: ``upsample``, ``check_aliasing``, ``src``; ``ffbp``: ``factor``,
+        ``first_subaperture``, ``final_subapertures``, ``angle_oversample``, ...:
+        :data:`mitsar.focus.ffbp.FFBP_DEFAULTS`); see ``docs/focusing.md``.
     progress : bool
         Show a progress bar (back-projection).
     motion_compensation : bool
@@ -132,6 +136,13 @@ def focus(raw: xr.Dataset, algorithm: str = "bpa", grid: Grid | dict | None = No
             range_window=range_window, range_upsample=range_upsample)
         coverage = np.ones(values.shape)
         extra = {"rvp_removed": 0, "motion_correction": 0, "backend": "numpy", **extra}
+    elif algorithm == "ffbp":
+        layout = grid.resolve(raw, radar, nominal_azimuth)
+        values, coverage, extra = focus_ffbp(
+            raw, layout, half_width=half_width, window=window, range_window=range_window,
+            remove_rvp=remove_rvp, motion_correction=motion_correction,
+            range_upsample=range_upsample, options=algorithm_options, progress=progress)
+        extra = {"backend": "drjit", **extra}
     elif algorithm != "bpa":
         raw, layout, compensation = _straighten(raw, radar, grid, nominal_azimuth, half_width,
                                                 motion_compensation)

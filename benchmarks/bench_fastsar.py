@@ -1,0 +1,154 @@
+"""Exact back-projection throughput: mitsar's Dr.Jit kernel against FastSAR 0.1.8's CPU kernel.
+
+Both back-project the same sweeps onto the same N x N ground pixels, every pixel from every
+sweep (pixel-pulses = pixels x sweeps), and each image is compared with a float64 NumPy
+evaluation of its own sum on a random subset of pixels (error ``20 log10(||a - ref|| /
+||ref||)``):
+
+* mitsar: :func:`mitsar.focus.backprojection.backproject_drjit` on the 16x range spectrum,
+  ``precision="double"`` (the default) and ``"single"`` (float32 with float64 block tables),
+  against :func:`mitsar.focus.backprojection.backproject_numpy`;
+* FastSAR: ``fastsar.backproject(..., backend="cpu")`` (C++/OpenMP, float64 arithmetic on
+  float32 range profiles) on the same data written as a frequency-domain phase history
+  motion-compensated to the scene centre (sample n at RF frequency ``f_c + K t_n``; a
+  scatterer gives ``exp(-j 4 pi f dR / c)``, ``dR = |x - a| - |a|``), against a float64
+  evaluation of that documented sum (``fastsar.bp`` module docstring).
+
+FastSAR is optional (``pip install fastsar==0.1.8``, the ``bench`` extra); without it, or
+without a C++ compiler for its CPU kernel, its rows are skipped with the reason printed.
+Timings are taken after a warm-up call (kernel compilation) and include the copy back to
+NumPy. Not a test: ``python benchmarks/bench_fastsar.py [--sweeps N] [--pixels N]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+
+import numpy as np
+
+import mitsar
+from mitsar.focus.backprojection import backproject_drjit, backproject_numpy
+from mitsar.focus.compression import range_spectrum
+from mitsar.focus.windows import window_coefficients
+from mitsar.model.radar import SPEED_OF_LIGHT
+from mitsar.model.signal import fast_time
+
+TARGET = np.array([15.0, 8.0, 0.0])
+
+
+def error_db(values: np.ndarray, reference: np.ndarray) -> float:
+    return 20 * math.log10(np.linalg.norm(values - reference) / np.linalg.norm(reference))
+
+
+def timed(function, repeats: int = 1):  # noqa: ANN001, ANN201
+    function()  # warm-up: compilation, caches
+    start = time.perf_counter()
+    for _ in range(repeats):
+        result = function()
+    return result, (time.perf_counter() - start) / repeats
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--sweeps", type=int, default=1000)
+    parser.add_argument("--pixels", type=int, default=512, help="pixels per side")
+    parser.add_argument("--check", type=int, default=2048, help="pixels in the float64 check")
+    args = parser.parse_args()
+
+    radar = mitsar.Radar()
+    duration = args.sweeps / radar.prf
+    trajectory = mitsar.Trajectory.linear([15.0 - 0.25 * duration, 1.4, 4.5], [0.5, 0, 0],
+                                          duration)
+    look = mitsar.Look(math.degrees(math.atan2(6.6, 4.5)))
+    raw = mitsar.simulate_point_targets(radar, trajectory, look,
+                                        [mitsar.PointTarget(TARGET)], normalized=True)
+    side = np.linspace(-1.0, 1.0, args.pixels)
+    grid_x, grid_y = np.meshgrid(15.0 + side, 8.0 + side, indexing="ij")
+    pixels = np.stack([grid_x, grid_y, np.zeros_like(grid_x)], -1).reshape(-1, 3)
+    positions = raw["platform_position"].values
+    velocities = raw["platform_velocity"].values
+    work = len(pixels) * len(positions)
+    check = np.random.default_rng(1).choice(len(pixels), min(args.check, len(pixels)),
+                                            replace=False)
+    print(f"exact back-projection: {args.pixels}x{args.pixels} pixels x {len(positions)} "
+          f"sweeps = {work:.3g} pixel-pulses (every pixel from every sweep)")
+    print(f"  {'kernel':34s} {'time [s]':>9s} {'M px-pulses/s':>14s} {'error vs f64 [dB]':>18s}")
+
+    # mitsar
+    frequency, profile = range_spectrum(raw["raw"].values, radar, upsample=16)
+    centroid = raw["boresight"].values @ np.array([1.0, 0, 0])
+    arguments = (profile, frequency, radar)
+    common = (positions, velocities, centroid, 1.0, window_coefficients("rect"))
+    reference, _ = backproject_numpy(*arguments, pixels[check], *common)
+    rates = {}
+    for precision in ("double", "single"):
+        (values, _), elapsed = timed(lambda p=precision: backproject_drjit(
+            *arguments, pixels, *common, precision=p), 2)
+        rates[precision] = work / elapsed
+        label = f"mitsar Dr.Jit, precision={precision}"
+        print(f"  {label:34s} {elapsed:9.2f} {rates[precision] / 1e6:14.1f} "
+              f"{error_db(values[check], reference):18.1f}")
+
+    # FastSAR
+    try:
+        import fastsar  # optional: the bench extra
+    except ImportError as error:
+        print(f"  FastSAR skipped: {error} (pip install fastsar==0.1.8)")
+        return
+    centre = pixels.mean(axis=0)
+    antenna = positions - centre
+    points = pixels - centre
+    rf = radar.carrier_frequency + radar.chirp_rate * fast_time(radar)
+    history = np.conj(raw["raw"].values) * np.exp(
+        4j * np.pi * rf[None, :] * np.linalg.norm(antenna, axis=-1)[:, None] / SPEED_OF_LIGHT)
+    df = radar.chirp_rate / radar.sampling_frequency
+    try:
+        fast, elapsed = timed(lambda: fastsar.backproject(history, antenna, float(rf[0]), df,
+                                                          points, backend="cpu",
+                                                          window=False))
+    except Exception as error:  # noqa: BLE001  (a missing compiler, an API change: say why)
+        print(f"  FastSAR skipped: {type(error).__name__}: {error}")
+        return
+    fast_reference = _fastsar_reference(history, antenna, float(rf[0]), df, points[check])
+    fast_rate = work / elapsed
+    print(f"  {'FastSAR ' + fastsar.__version__ + ' exact, cpu':34s} {elapsed:9.2f} "
+          f"{fast_rate / 1e6:14.1f} {error_db(fast[check], fast_reference):18.1f}")
+    print("  mitsar / FastSAR throughput: " + ", ".join(
+        f"{name} {rate / fast_rate:.2f}x" for name, rate in rates.items()))
+
+
+def _fastsar_reference(history: np.ndarray, antenna: np.ndarray, fmin: float, df: float,
+                       points: np.ndarray, upsample: int = 8) -> np.ndarray:
+    """float64 evaluation of FastSAR's documented exact sum (``fastsar.bp`` docstring): the
+    pulse's zero-padded inverse FFT (zero delay at the centre bin), read linearly at
+    ``dR`` and rotated by ``exp(+j 2 pi k dR)``, k the two-way wavenumber at the centre
+    frequency."""
+    pulses, samples = history.shape
+    size = 1 << int(np.ceil(np.log2(upsample * samples)))
+    half = samples // 2
+    padded = np.zeros((pulses, size), dtype=complex)
+    padded[:, :samples - half] = history[:, half:]
+    padded[:, size - half:] = history[:, :half]
+    compressed = np.fft.fftshift(np.fft.ifft(padded, axis=1), axes=1) * size
+    bins_per_metre = 2.0 * df * size / SPEED_OF_LIGHT
+    wavenumber = 2.0 * (fmin + half * df) / SPEED_OF_LIGHT
+    out = np.zeros(len(points), dtype=complex)
+    for start in range(0, pulses, 64):
+        block = slice(start, start + 64)
+        delta = (np.linalg.norm(points[None] - antenna[block, None], axis=-1)
+                 - np.linalg.norm(antenna[block], axis=-1)[:, None])
+        position = delta * bins_per_metre + size // 2
+        lower = np.floor(position)
+        fraction = position - lower
+        lower = lower.astype(np.int64) % size
+        rows = np.arange(start, min(start + 64, pulses))[:, None]
+        value = (compressed[rows, lower] * (1 - fraction)
+                 + compressed[rows, (lower + 1) % size] * fraction)
+        out += (value * np.exp(2j * np.pi * wavenumber * delta)).sum(axis=0)
+    return out
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,559 @@
+"""Fast factorised back-projection (FFBP) of dechirped FMCW data, for any track and any grid.
+
+After Ulander, Hellsten & Stenström, "Synthetic-aperture radar processing using fast factorized
+back-projection", IEEE TAES 39(3):760-776, 2003. The track is cut into sub-apertures; a
+sub-aperture of length L can only resolve angles to about ``lambda / (2 L)``, so its image is
+held on a coarse *local polar grid* (range ``rho`` from the sub-aperture centre c by direction
+cosine ``alpha = a . (x - c) / rho`` about its axis a), and sub-apertures are merged, a factor
+at a time, onto the finer polar grids of their parents by interpolation.
+
+Steps of :func:`focus_ffbp`:
+
+1. band selection and range compression exactly as :func:`mitsar.focus.bpa.focus_bpa`
+   (``"doppler"`` band-pass on straight uniform tracks with a band narrower than the beam,
+   ``"pixel"`` weighting otherwise; :func:`mitsar.focus.compression.range_spectrum`);
+2. first stage: every sub-aperture of ``first_subaperture`` sweeps is back-projected exactly,
+   with the BPA kernel (:func:`mitsar.focus.backprojection.backproject_drjit`: beat frequency
+   ``K tau + f_c dtau/dt``, Meta 2007 §II-B, and de-rotation by ``exp(-j 2 pi f_c tau)``),
+   onto the nodes of its polar grid; the nodes are points of the image plane (the plane that
+   holds the output pixels: least squares through them), so the sub-aperture images are exact
+   there for any track, bends included; each node also keeps the sum of its sweeps' azimuth
+   weights (for the normalisation);
+3. every polar image is *demodulated*, multiplied by ``exp(+j 2 pi f_c 2 rho / c)``: what is
+   left varies slowly, in range as the compressed pulse (bandwidth ``2B/c`` cycles/m) and in
+   angle as the residual phase ``2 pi (2/lambda) s (alpha - alpha_0)`` of the sweeps' offsets s
+   (bandwidth ``2 L / lambda``), so it can be sampled at ``c / (2 B q_r)`` in range and
+   ``lambda / (2 L q_a)`` in angle and interpolated (Keys cubic, 4 x 4 taps; the weight sums
+   bilinearly);
+4. merge stages: a parent node y takes, from each child j, the child's demodulated image
+   interpolated at ``(|y - c_j|, alpha_j(y))``, re-modulated by ``exp(-j 2 pi f_c 2 rho_j / c)``
+   and demodulated by the parent's ``exp(+j 2 pi f_c 2 rho_P / c)``, i.e. rotated by
+   ``2 pi (2 f_c / c)(rho_P - rho_j)``, computed as ``(c_j - c_P).(2y - c_P - c_j) /
+   (rho_P + rho_j)`` so that float32 keeps it (a Dr.Jit kernel, one lane per (node, child));
+5. final stage: the remaining sub-apertures are merged onto the output pixels the same way,
+   re-modulated in float64 by the range from a local origin, and normalised as BPA
+   (:func:`mitsar.focus.aperture.full_aperture_weight`, :func:`normalise_image`), so a unit
+   point focuses to about 1.
+
+The azimuth window: each sweep is weighted at the first-stage nodes exactly as BPA weights it
+at a pixel (the window at the node's direction sine), so bends of the track are handled (a
+sweep past a turn that no longer sees a node gets weight 0); the window is then known to one
+first-stage angular cell, which is why ``"pixel"`` band selection with a band narrower than the
+beam (a hard cut per pixel and sweep) is refused: polar sub-aperture images cannot hold it
+(measured -7 dB on the curved test track; use BPA there).
+
+Options (``algorithm_options``), defaults and measured error (``docs/focusing.md`` § FFBP):
+``factor`` 4 (sub-apertures merged per stage), ``first_subaperture`` 8 (sweeps per
+first-stage sub-aperture), ``final_subapertures`` 8 (merging stops when at most this many are
+left), ``angle_oversample`` 4.0 (``q_a``), ``first_angle_oversample`` 4.0 (extra angular
+sampling of the first stage, where nodes are cheap: finer window edges), ``range_oversample``
+4.0 (``q_r``). At the defaults a point target's image is -42 dB from
+exact BPA (straight track, Doppler band selection), -39 dB (curved track, ground plane, whole
+beam); the error falls by ~19 dB from ``q_a`` = 2 to 4 and ~5 dB from 4 to 8, and is -31 dB at
+``q_r`` = 2. Processing the whole beam with a rect window, the hard cut of the target's echo
+at each far pixel's beam edge limits the agreement to about -34 dB (-46 dB with a Hamming
+window).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import drjit as dr
+import numpy as np
+import xarray as xr
+from drjit.llvm import Float32, UInt32
+from numpy.typing import NDArray
+from tqdm.auto import tqdm
+
+from mitsar.backend import require_llvm
+from mitsar.errors import ParameterError
+from mitsar.focus.aperture import (
+    aperture_half_width,
+    band_coverage,
+    doppler_bandpass,
+    full_aperture_weight,
+    is_uniform_straight_track,
+    normalise_image,
+    sweep_window,
+)
+from mitsar.focus.backprojection import (
+    backproject_drjit,
+    carrier_turns,
+    derotate,
+    interpolate,
+    jit_array,
+)
+from mitsar.focus.bpa import crop_to_pixels
+from mitsar.focus.compression import range_spectrum
+from mitsar.focus.grid import track_frame
+from mitsar.focus.windows import window_coefficients
+from mitsar.model.radar import SPEED_OF_LIGHT
+from mitsar.model.signal import fast_time
+from mitsar.raw.product import radar_of
+
+__all__ = ["FFBP_DEFAULTS", "focus_ffbp"]
+
+FFBP_DEFAULTS: dict[str, float | str] = {
+    "factor": 4, "first_subaperture": 8, "final_subapertures": 8, "angle_oversample": 4.0,
+    "range_oversample": 4.0, "first_angle_oversample": 4.0}
+"""Default FFBP options (see the module docstring)."""
+
+_MARGIN = 3
+"""Polar-grid nodes added beyond the pixels on every side, per remaining stage (cubic taps)."""
+
+
+@dataclass
+class _Stage:
+    """Sub-apertures of one stage and their polar images (arrays over sub-apertures j)."""
+
+    first: NDArray           # (J,) first sweep
+    end: NDArray             # (J,) end sweep
+    centre: NDArray          # (J, 3) [m], relative to the local origin
+    axis: NDArray            # (J, 3) unit
+    rho0: NDArray            # (J,) first range node [m]
+    alpha0: NDArray          # (J,) first direction-cosine node
+    rho_step: float
+    alpha_step: float
+    shape: tuple[int, int]   # (N_rho, N_alpha)
+    values: NDArray | None = None  # (J, N_rho, N_alpha) demodulated images
+    totals: NDArray | None = None  # (J, N_rho, N_alpha) sums of the sweeps' weights
+
+
+def focus_ffbp(raw: xr.Dataset, layout_or_pixels: dict | NDArray, *, half_width: float,
+               window: str, range_window: str, remove_rvp: bool, motion_correction: bool,
+               range_upsample: int, options: dict | None = None, band_selection: str | None = None,
+               progress: bool = False) -> tuple[NDArray, NDArray, dict]:
+    """Focus a raw product by fast factorised back-projection (see the module docstring).
+
+    Parameters
+    ----------
+    raw : xarray.Dataset
+        Raw product.
+    layout_or_pixels : dict or ndarray
+        A resolved grid layout (``position`` of shape (n0, n1, 3)) or pixel positions (P, 3) [m].
+    half_width : float
+        Processed half width in direction sine, ``lambda / (4 rho)``.
+    window, range_window : str
+        Azimuth and range windows.
+    remove_rvp, motion_correction : bool
+        As :func:`mitsar.focus.bpa.focus_bpa`.
+    range_upsample : int
+        Zero-padding factor of the range FFT (first-stage lookup, as BPA).
+    options : dict, optional
+        ``factor``, ``first_subaperture``, ``final_subapertures``, ``angle_oversample``,
+        ``first_angle_oversample``, ``range_oversample`` (:data:`FFBP_DEFAULTS`; module
+        docstring).
+    band_selection : {"doppler", "pixel"} or None
+        As :func:`mitsar.focus.bpa.focus_bpa`.
+    progress : bool
+        Show a progress bar over stages.
+
+    Returns
+    -------
+    values : ndarray, shape (P,), complex
+    coverage : ndarray, shape (P,)
+    extra : dict
+        Processing attributes (band selection, options, stage count).
+    """
+    require_llvm()
+    settings = _options(options)
+    pixels = _pixel_array(layout_or_pixels)
+    radar = radar_of(raw)
+    beam_half_width = aperture_half_width(radar, None)
+    straight = is_uniform_straight_track(raw)
+    if band_selection is None:
+        band_selection = "doppler" if straight and half_width < beam_half_width else "pixel"
+    if band_selection == "doppler" and not straight:
+        raise ParameterError("focus", "band_selection",
+                             "'pixel' for a curved track or a varying speed", band_selection)
+    if band_selection == "pixel" and half_width < beam_half_width:
+        raise ParameterError(
+            "focus", "azimuth_resolution",
+            "the whole beam (None) for FFBP on a curved track or a varying speed: a narrower "
+            "band is cut per pixel and sweep, which polar sub-aperture images cannot hold "
+            "(use algorithm='bpa')", f"a half width of {half_width:.4g} in direction sine")
+    positions = raw["platform_position"].values
+    velocities = raw["platform_velocity"].values
+    speed = np.linalg.norm(velocities, axis=-1)
+    centroid = np.einsum("si,si->s", raw["boresight"].values, velocities) / np.where(
+        speed > 0, speed, 1.0)
+    coefficients = window_coefficients(window)
+    mean_speed, mean_centroid = float(speed.mean()), float(centroid.mean())
+    samples = raw["raw"].values
+    if band_selection == "doppler":
+        bandwidth = 4 * mean_speed * half_width / radar.wavelength
+        rf_frequency = radar.carrier_frequency + radar.chirp_rate * fast_time(radar)
+        pad = int(np.ceil(4 * radar.prf / bandwidth))
+        samples = doppler_bandpass(samples, radar.prf, mean_centroid, half_width, mean_speed,
+                                   rf_frequency, coefficients, pad)
+        kernel_half_width, kernel_window = beam_half_width, window_coefficients("rect")
+    else:
+        kernel_half_width, kernel_window = half_width, coefficients
+    frequency, profile = range_spectrum(
+        samples, radar, window=range_window, remove_rvp=remove_rvp, upsample=range_upsample,
+        rvp_present=bool(raw.attrs.get("rvp", 1)))
+
+    # Geometry relative to a local origin near the pixels (float32 kernels; docs/focusing.md).
+    origin_local = pixels.mean(axis=0)
+    sample = _pixel_sample(layout_or_pixels) - origin_local
+    local_positions = positions - origin_local
+    normal, plane_point = _image_plane(sample, local_positions)
+    wavenumber = 2 * radar.carrier_frequency / SPEED_OF_LIGHT  # two-way, cycles per metre
+    rho_step = radar.range_resolution / settings["range_oversample"]
+    stages = _plan(len(positions), settings)
+    window_support = (mean_centroid - kernel_half_width, mean_centroid + kernel_half_width)
+    bar = tqdm(total=len(stages) + 1, disable=not progress, desc="FFBP", unit="stage")
+
+    # First stage: exact back-projection onto the nodes of every sub-aperture's polar grid.
+    stage = _make_stage(stages[0], local_positions, velocities, sample, normal, plane_point,
+                        rho_step, radar.wavelength,
+                        settings["angle_oversample"] * settings["first_angle_oversample"],
+                        _MARGIN * len(stages), window_support)
+    nodes = _node_positions(stage, normal, plane_point)
+    flat_nodes = nodes.reshape(-1, 3) + origin_local
+    node_count = stage.shape[0] * stage.shape[1]
+    frequency, profile = crop_to_pixels(frequency, profile, radar, flat_nodes, positions,
+                                        float(speed.max()))
+    sweep_range = (np.repeat(stage.first, node_count).astype(np.uint32),
+                   np.repeat(stage.end, node_count).astype(np.uint32))
+    sums, totals = backproject_drjit(profile, frequency, radar, flat_nodes, positions,
+                                     velocities, centroid, kernel_half_width, kernel_window,
+                                     motion_correction, sweep_range=sweep_range)
+    rho = np.linalg.norm(nodes - stage.centre[:, None, None, :], axis=-1)
+    stage.values = (sums.reshape(nodes.shape[:3])
+                    * np.exp(2j * np.pi * carrier_turns(rho, wavenumber, np.floor)))
+    stage.totals = totals.reshape(nodes.shape[:3])
+    bar.update()
+
+    # Merge stages.
+    for index, groups in enumerate(stages[1:], start=1):
+        parent = _make_stage(groups, local_positions, velocities, sample, normal, plane_point,
+                             rho_step, radar.wavelength, settings["angle_oversample"],
+                             _MARGIN * (len(stages) - index), window_support)
+        nodes = _node_positions(parent, normal, plane_point)
+        per_node = nodes.shape[1] * nodes.shape[2]
+        children = _children_of(stage, parent)
+        first_child = np.repeat(children[0], per_node)
+        end_child = np.repeat(children[1], per_node)
+        reference = np.repeat(parent.centre, per_node, axis=0)
+        merged, totals = _merge(stage, nodes.reshape(-1, 3), reference, first_child,
+                                end_child, wavenumber)
+        parent.values = merged.reshape(nodes.shape[:3])
+        parent.totals = totals.reshape(nodes.shape[:3])
+        stage = parent
+        bar.update()
+
+    # Final stage: onto the pixels, with the azimuth window per sub-aperture.
+    local_pixels = pixels - origin_local
+    if straight:
+        origin, direction, _ = track_frame(raw)
+        first, end = sweep_window(pixels, origin, direction, mean_speed / radar.prf,
+                                  len(positions), mean_centroid, kernel_half_width)
+        first_child = np.searchsorted(stage.end, first, side="right").astype(np.uint32)
+        end_child = np.searchsorted(stage.first, end, side="left").astype(np.uint32)
+    else:
+        first_child = np.zeros(len(pixels), dtype=np.uint32)
+        end_child = np.full(len(pixels), len(stage.first), dtype=np.uint32)
+    merged, total = _merge(stage, local_pixels, np.zeros((1, 3)), first_child, end_child,
+                           wavenumber)
+    # Re-modulate by the carrier of the range from the local origin, in float64.
+    merged *= np.exp(-2j * np.pi * carrier_turns(np.linalg.norm(local_pixels, axis=-1),
+                                                 wavenumber, np.floor))
+    bar.update()
+    bar.close()
+
+    origin, direction, _ = track_frame(raw)
+    geometry = (pixels, origin, direction, mean_speed, radar.prf, mean_centroid)
+    signal_weight = full_aperture_weight(*geometry, half_width, float(coefficients[0]))
+    if band_selection == "doppler":
+        track_length = float((positions[-1] - origin) @ direction)
+        coverage = band_coverage(pixels, origin, direction, track_length, mean_centroid,
+                                 half_width)
+        values = merged / np.where(signal_weight > 0, signal_weight, 1.0)
+    else:
+        values, coverage = normalise_image(merged, total, signal_weight)
+    extra = {"band_selection": band_selection, "ffbp_stages": len(stages),
+             **{f"ffbp_{key}": value for key, value in settings.items()}}
+    return values, coverage, extra
+
+
+# --------------------------------------------------------------------------------------------
+# Options, pixels and the image plane
+# --------------------------------------------------------------------------------------------
+def _options(options: dict | None) -> dict:
+    """Defaults completed and checked (:data:`FFBP_DEFAULTS`)."""
+    settings = dict(FFBP_DEFAULTS)
+    for key, value in (options or {}).items():
+        if key not in FFBP_DEFAULTS:
+            raise ParameterError("focus", "algorithm_options",
+                                 f"FFBP options among {sorted(FFBP_DEFAULTS)}", key)
+        settings[key] = value
+    for key in ("factor", "first_subaperture", "final_subapertures"):
+        value = settings[key]
+        low = 2 if key != "final_subapertures" else 1
+        if not (isinstance(value, int | np.integer) and value >= low):
+            raise ParameterError("focus", f"algorithm_options['{key}']", f"an integer >= {low}",
+                                 value)
+    for key in ("angle_oversample", "range_oversample", "first_angle_oversample"):
+        value = settings[key]
+        if not (isinstance(value, int | float) and math.isfinite(value) and value >= 1):
+            raise ParameterError("focus", f"algorithm_options['{key}']", "a number >= 1",
+                                 value)
+        settings[key] = float(value)
+    return settings
+
+
+def _pixel_array(layout_or_pixels: dict | NDArray) -> NDArray:
+    if isinstance(layout_or_pixels, dict):
+        return np.asarray(layout_or_pixels["position"], dtype=float).reshape(-1, 3)
+    pixels = np.asarray(layout_or_pixels, dtype=float)
+    if pixels.ndim != 2 or pixels.shape[1] != 3:
+        raise ParameterError("focus_ffbp", "layout_or_pixels", "a layout or pixels (P, 3)",
+                             pixels.shape)
+    return pixels
+
+
+def _pixel_sample(layout_or_pixels: dict | NDArray, count: int = 4096) -> NDArray:
+    """Pixels that bound the extent of the image: a grid's border and a strided interior."""
+    if isinstance(layout_or_pixels, dict):
+        grid = np.asarray(layout_or_pixels["position"], dtype=float)
+        border = np.concatenate([grid[0], grid[-1], grid[:, 0], grid[:, -1]])
+        step = max(1, int(math.ceil(math.sqrt(grid.shape[0] * grid.shape[1] / count))))
+        return np.concatenate([border, grid[::step, ::step].reshape(-1, 3)])
+    pixels = np.asarray(layout_or_pixels, dtype=float)
+    step = max(1, len(pixels) // count)
+    centred = pixels - pixels.mean(axis=0)
+    extremes = np.concatenate([np.argmin(centred, axis=0), np.argmax(centred, axis=0)])
+    return np.concatenate([pixels[::step], pixels[extremes]])
+
+
+def _image_plane(sample: NDArray, positions: NDArray) -> tuple[NDArray, NDArray]:
+    """Unit normal and a point of the plane that holds the pixels.
+
+    The least-squares plane of the pixels; for pixels on a line or at one point, the plane
+    through them that holds the track's mean direction (a slant plane).
+    """
+    centre = sample.mean(axis=0)
+    _, singular, basis = np.linalg.svd(sample - centre, full_matrices=False)
+    scale = max(float(singular[0]), 1e-12)
+    if len(singular) == 3 and singular[1] > 1e-6 * scale:
+        return basis[2], centre
+    track = positions[-1] - positions[0]
+    look = centre - positions.mean(axis=0)
+    line = basis[0] if singular[0] > 1e-9 else track
+    normal = np.cross(line, look) if singular[0] > 1e-9 else np.cross(track, look)
+    return normal / np.linalg.norm(normal), centre
+
+
+# --------------------------------------------------------------------------------------------
+# Sub-apertures and their polar grids
+# --------------------------------------------------------------------------------------------
+def _plan(sweeps: int, settings: dict) -> list[NDArray]:
+    """Sweep boundaries of every stage's sub-apertures: a list of (J_s + 1,) arrays."""
+    bounds = np.unique(np.append(np.arange(0, sweeps, settings["first_subaperture"]), sweeps))
+    stages = [bounds]
+    while len(bounds) - 1 > settings["final_subapertures"]:
+        bounds = np.unique(np.append(bounds[::settings["factor"]], sweeps))
+        stages.append(bounds)
+    return stages
+
+
+def _make_stage(bounds: NDArray, positions: NDArray, velocities: NDArray, sample: NDArray,
+                normal: NDArray, plane_point: NDArray, rho_step: float, wavelength: float,
+                angle_oversample: float, margin: int, support: tuple[float, float]) -> _Stage:
+    """Centres, axes and polar-grid extents of the sub-apertures between ``bounds``."""
+    first, end = bounds[:-1], bounds[1:]
+    last = end - 1
+    middle_low, middle_high = (first + last) // 2, (first + last + 1) // 2
+    centre = 0.5 * (positions[middle_low] + positions[middle_high])
+    chord = positions[last] - positions[first]
+    mean_velocity = np.add.reduceat(velocities, first, axis=0)
+    fallback = mean_velocity / np.maximum(np.linalg.norm(mean_velocity, axis=-1), 1e-12)[:, None]
+    length = np.linalg.norm(chord, axis=-1)
+    axis = np.where(length[:, None] > 1e-9, chord / np.maximum(length, 1e-12)[:, None], fallback)
+    longest = float(length.max()) + _spacing(positions)
+    alpha_step = wavelength / (2 * longest * angle_oversample)
+    offset = sample[None, :, :] - centre[:, None, :]
+    rho = np.linalg.norm(offset, axis=-1)
+    alpha = np.einsum("jpi,ji->jp", offset, axis) / rho
+    parallax = longest / rho.min()
+    low = np.maximum(alpha.min(axis=1), support[0] - parallax)
+    high = np.minimum(alpha.max(axis=1), support[1] + parallax)
+    high = np.maximum(high, low)
+    rho0 = rho.min(axis=1) - margin * rho_step
+    alpha0 = np.maximum(low - margin * alpha_step, -1.0)
+    n_rho = int(np.ceil((rho.max(axis=1) - rho.min(axis=1)).max() / rho_step)) + 2 * margin + 1
+    n_alpha = int(np.ceil((high - low).max() / alpha_step)) + 2 * margin + 1
+    return _Stage(first, end, centre, axis, rho0, alpha0, rho_step, alpha_step,
+                  (n_rho, n_alpha))
+
+
+def _spacing(positions: NDArray) -> float:
+    """Mean distance between consecutive sweeps [m]."""
+    return float(np.linalg.norm(np.diff(positions, axis=0), axis=-1).mean())
+
+
+def _node_positions(stage: _Stage, normal: NDArray, plane_point: NDArray) -> NDArray:
+    """World positions (local frame) of the polar-grid nodes, shape (J, N_rho, N_alpha, 3).
+
+    Node (rho, alpha) of sub-aperture j is where the sphere ``|x - c| = rho``, the cone
+    ``a . (x - c) = rho alpha`` and the image plane meet, on the side of the pixels:
+    ``x = c + rho (alpha a + s (cos phi b1 + sin phi b2))``, ``s = sqrt(1 - alpha^2)``, with
+    ``A cos phi + B sin phi = C`` from the plane equation.
+    """
+    rho = stage.rho0[:, None] + stage.rho_step * np.arange(stage.shape[0])
+    alpha = np.clip(stage.alpha0[:, None] + stage.alpha_step * np.arange(stage.shape[1]),
+                    -1.0, 1.0)
+    axis = stage.axis
+    helper = np.where(np.abs(axis[:, :1]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]])
+    b1 = np.cross(axis, helper)
+    b1 /= np.linalg.norm(b1, axis=-1, keepdims=True)
+    b2 = np.cross(axis, b1)
+    sine = np.sqrt(1 - alpha**2)[:, None, :]
+    r = rho[:, :, None]
+    height = ((stage.centre - plane_point) @ normal)[:, None, None]
+    a_term = (axis @ normal)[:, None, None]
+    big_a = r * sine * (b1 @ normal)[:, None, None]
+    big_b = r * sine * (b2 @ normal)[:, None, None]
+    big_c = -height - r * alpha[:, None, :] * a_term
+    amplitude = np.sqrt(big_a**2 + big_b**2)
+    base = np.arctan2(big_b, big_a)
+    spread = np.arccos(np.clip(big_c / np.maximum(amplitude, 1e-12), -1.0, 1.0))
+    # The pixels' side: the sign of (x - c) . (n x a) that the plane centre has.
+    side_vector = np.cross(normal[None, :], axis)
+    side = np.sign(np.einsum("ji,ji->j", plane_point - stage.centre, side_vector))
+    side = np.where(side == 0, 1.0, side)[:, None, None]
+    candidates = []
+    for phi in (base + spread, base - spread):
+        direction = (alpha[:, None, :, None] * axis[:, None, None, :]
+                     + sine[..., None] * (np.cos(phi)[..., None] * b1[:, None, None, :]
+                                          + np.sin(phi)[..., None] * b2[:, None, None, :]))
+        candidates.append(direction)
+    lateral = np.einsum("jrai,ji->jra", candidates[0], side_vector)
+    direction = np.where((np.sign(lateral) == side)[..., None], candidates[0], candidates[1])
+    return stage.centre[:, None, None, :] + r[..., None] * direction
+
+
+def _children_of(child: _Stage, parent: _Stage) -> tuple[NDArray, NDArray]:
+    """First and end child index of every parent sub-aperture."""
+    return (np.searchsorted(child.first, parent.first).astype(np.uint32),
+            np.searchsorted(child.first, parent.end).astype(np.uint32))
+
+
+# --------------------------------------------------------------------------------------------
+# The merge kernel
+# --------------------------------------------------------------------------------------------
+def _merge(stage: _Stage, points: NDArray, reference: NDArray, first_child: NDArray,
+           end_child: NDArray, wavenumber: float, chunk: int = 1 << 22
+           ) -> tuple[NDArray, NDArray]:
+    """Sum of the children's images at ``points``, demodulated about ``reference``.
+
+    Returns ``sum_j V_j(rho_j, alpha_j) exp(j 2 pi k (rho_ref - rho_j))`` (k: two-way
+    wavenumber ``2 f_c / c`` in cycles per metre) and ``sum_j T_j`` (T_j: the child's
+    interpolated sum of sweep weights). One kernel lane per
+    (point, child) pair, in chunks of ``chunk`` lanes, summed per point with ``bincount``.
+    """
+    n_rho, n_alpha = stage.shape
+    f32 = np.float32
+
+    def column(array: NDArray, index: int) -> Float32:
+        return jit_array(Float32, array[:, index], f32)
+
+    if len(reference) == 1:
+        reference = np.broadcast_to(reference, points.shape)
+    point_data = [jit_array(Float32, a[:, i], f32) for a in (points, reference) for i in range(3)]
+    child = [column(stage.centre, i) for i in range(3)] + [column(stage.axis, i)
+                                                           for i in range(3)]
+    child += [jit_array(Float32, stage.rho0, f32), jit_array(Float32, stage.alpha0, f32)]
+    values = stage.values.reshape(len(stage.first), -1)
+    images = [jit_array(Float32, part.ravel(), f32)
+              for part in (values.real, values.imag, stage.totals)]
+    scalars = {"rho_step": dr.opaque(Float32, stage.rho_step),
+               "alpha_step": dr.opaque(Float32, stage.alpha_step),
+               "n_rho": dr.opaque(UInt32, n_rho), "n_alpha": dr.opaque(UInt32, n_alpha),
+               "wavenumber": dr.opaque(Float32, wavenumber)}
+    counts = end_child.astype(np.int64) - first_child.astype(np.int64)
+    offsets = np.concatenate([[0], np.cumsum(counts)])
+    out = np.zeros((3, len(points)))
+    for start in range(0, int(offsets[-1]), chunk):
+        lane = np.arange(start, min(start + chunk, int(offsets[-1])))
+        point = np.searchsorted(offsets, lane, side="right") - 1
+        child_index = first_child[point] + (lane - offsets[point])
+        result = _merge_lanes(jit_array(UInt32, point, np.uint32),
+                              jit_array(UInt32, child_index, np.uint32), point_data, child,
+                              images, scalars)
+        dr.eval(*result)
+        for row, part in enumerate(result):
+            out[row] += np.bincount(point, weights=np.asarray(part, dtype=float),
+                                    minlength=len(points))
+    return out[0] + 1j * out[1], out[2]
+
+
+def _keys(t: Float32) -> tuple[Float32, Float32, Float32, Float32]:
+    """Keys cubic-convolution weights (a = -1/2) of the taps at -1, 0, 1, 2 for offset t."""
+    t2 = t * t
+    t3 = t2 * t
+    return (-0.5 * t3 + t2 - 0.5 * t, 1.5 * t3 - 2.5 * t2 + 1.0,
+            -1.5 * t3 + 2.0 * t2 + 0.5 * t, 0.5 * t3 - 0.5 * t2)
+
+
+def _merge_lanes(point, k, point_data, child, images, scalars):  # noqa: ANN001, ANN202
+    """One lane per (point, child) pair: the child's re-phased image at the point."""
+    x, y, z, rx, ry, rz = (dr.gather(Float32, array, point) for array in point_data)
+    real, imag, totals = images
+    cx_all, cy_all, cz_all, ax_all, ay_all, az_all, rho0_all, alpha0_all = child
+    rho_step, alpha_step = scalars["rho_step"], scalars["alpha_step"]
+    n_rho, n_alpha, wavenumber = scalars["n_rho"], scalars["n_alpha"], scalars["wavenumber"]
+    width = dr.width(point)
+    cx = dr.gather(Float32, cx_all, k)
+    cy = dr.gather(Float32, cy_all, k)
+    cz = dr.gather(Float32, cz_all, k)
+    ox, oy, oz = x - cx, y - cy, z - cz
+    rho = dr.sqrt(ox * ox + oy * oy + oz * oz)
+    alpha = (ox * dr.gather(Float32, ax_all, k) + oy * dr.gather(Float32, ay_all, k)
+             + oz * dr.gather(Float32, az_all, k)) / rho
+    u = (rho - dr.gather(Float32, rho0_all, k)) / rho_step
+    v = (alpha - dr.gather(Float32, alpha0_all, k)) / alpha_step
+    iu = dr.floor(u)
+    iv = dr.floor(v)
+    fu = dr.clip(u - iu, 0.0, 1.0)
+    fv = dr.clip(v - iv, 0.0, 1.0)
+    wu = _keys(fu)
+    wv = _keys(fv)
+    # Outside a child's grid its image is zero (the grid holds the window's support).
+    valid = ((iu >= 1.0) & (iu <= Float32(n_rho - 3)) & (iv >= 1.0)
+             & (iv <= Float32(n_alpha - 3)))
+    iu = dr.clip(iu, 1.0, Float32(n_rho - 3))
+    iv = dr.clip(iv, 1.0, Float32(n_alpha - 3))
+    base = k * n_rho * n_alpha + (UInt32(iu) - 1) * n_alpha + UInt32(iv) - 1
+    # Sweep weights: bilinear (they vary on the scale of the window, not of the phase).
+    inner = base + n_alpha + 1
+    weights_row = interpolate(dr.gather(Float32, totals, inner, valid),
+                              dr.gather(Float32, totals, inner + 1, valid), fv)
+    weights_next = interpolate(dr.gather(Float32, totals, inner + n_alpha, valid),
+                               dr.gather(Float32, totals, inner + n_alpha + 1, valid), fv)
+    child_total = interpolate(weights_row, weights_next, fu)
+    v_real = dr.zeros(Float32, width)
+    v_imag = dr.zeros(Float32, width)
+    for a in range(4):
+        row_real = dr.zeros(Float32, width)
+        row_imag = dr.zeros(Float32, width)
+        for b in range(4):
+            index = base + a * n_alpha + b
+            row_real += wv[b] * dr.gather(Float32, real, index, valid)
+            row_imag += wv[b] * dr.gather(Float32, imag, index, valid)
+        v_real += wu[a] * row_real
+        v_imag += wu[a] * row_imag
+    # rho_ref - rho_j = (c_j - c_ref) . (2 y - c_ref - c_j) / (rho_ref + rho_j): no
+    # cancellation in float32 (docs/focusing.md, kernel speed).
+    gx, gy, gz = cx - rx, cy - ry, cz - rz
+    sx, sy, sz = x - rx, y - ry, z - rz
+    rho_ref = dr.sqrt(sx * sx + sy * sy + sz * sz)
+    difference = (gx * (sx + ox) + gy * (sy + oy) + gz * (sz + oz)) / (rho_ref + rho)
+    turns = carrier_turns(difference, wavenumber, dr.floor)
+    sin_phase, cos_phase = dr.sincos(2 * dr.pi * turns)
+    # exp(+j phase): derotate by -phase.
+    part_real, part_imag = derotate(v_real, v_imag, -sin_phase, cos_phase)
+    return part_real, part_imag, child_total
