@@ -60,6 +60,7 @@ from mitsar.plots.products import (
     target_marks,
 )
 from mitsar.report.html import RUN_RECORD, build_report
+from mitsar.report.preview import preview
 from mitsar.report.run import run_experiment
 from mitsar.version import __version__
 
@@ -342,6 +343,12 @@ def cmd_run(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_preview(args: argparse.Namespace) -> int:
+    """``mitsar preview``: the scene, the flight and the beam, before simulating."""
+    print(f"wrote {preview(args.experiment, args.output, overwrite=args.overwrite)}")
+    return 0
+
+
 def cmd_report(args: argparse.Namespace) -> int:
     """``mitsar report``: rebuild the report of a run folder."""
     print(f"wrote {build_report(args.folder)}")
@@ -525,6 +532,12 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_argument("-n", "--realisations", type=int, default=0,
                      help="Monte Carlo realisations over the background (0: none)")
     _add_set(sub)
+    sub = _file_command(commands, common, "preview", cmd_preview,
+                        "picture of the scene, the flight and the beam",
+                        "Render the experiment's scene with Mitsuba (a stand-in floor and "
+                        "targets without one), with the trajectory, the antenna and the beam "
+                        "footprint at the first, middle and last sweep; and a top view.",
+                        ("experiment", "EXPERIMENT.toml"), "figure to write (.png, .pdf, .svg)")
     sub = commands.add_parser("report", parents=[common], help="rebuild a run's report.html",
                               description="Write report.html of a 'mitsar run' folder again "
                               "from its run.json.", formatter_class=_HELP)

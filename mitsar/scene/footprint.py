@@ -90,7 +90,8 @@ def beam_footprint(scene: Any, positions: ArrayLike, frames: ArrayLike, radar: R
     hit = scene.ray_intersect(ray)
     valid = np.array(hit.is_valid(), dtype=bool)
     t = np.where(valid, np.array(hit.t, dtype=np.float64), np.inf)
-    points = np.where(valid[:, None], origins + t[:, None] * flat, np.nan)
+    points = np.full(origins.shape, np.nan)
+    points[valid] = origins[valid] + t[valid, None] * flat[valid]
     return points.reshape(directions.shape), t.reshape(directions.shape[:2])
 
 
