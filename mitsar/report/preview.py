@@ -9,6 +9,7 @@ with the trajectory, the antenna and the beam's footprint at the first, middle a
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -23,7 +24,7 @@ from mitsar.raw.product import sweep_geometry
 from mitsar.scene import import_mitsuba, load_scene
 from mitsar.scene.render import stand_in_scene
 
-__all__ = ["preview"]
+__all__ = ["preview", "scene_or_stand_in"]
 
 _FLOOR_MARGIN = 3.0
 """Half-size added around the targets and the track for a stand-in floor [m]."""
@@ -48,20 +49,26 @@ def preview(path: str | Path, out: str | Path, overwrite: bool = False) -> Path:
         title = experiment.name or path.stem
     geometry = sweep_geometry(radar, trajectory, look, max(sweep_count(radar,
                                                                       trajectory.duration), 1))
-    if scene_name is not None:
-        scene = load_scene(scene_name)
-    else:
-        import_mitsuba()
-        if not planes:  # a floor under the targets and the track
-            corners = np.vstack([geometry["position"]] + ([np.array(points)] if points else []))
-            low = corners.min(axis=0) - _FLOOR_MARGIN
-            size = corners.max(axis=0) + _FLOOR_MARGIN - low
-            floor_z = min(p[2] for p in points) if points else 0.0
-            planes = [{"origin": [low[0], low[1], floor_z], "axis_u": [1, 0, 0],
-                       "axis_v": [0, 1, 0], "size": [size[0], size[1]]}]
-        scene = stand_in_scene(planes, points)
+    scene = scene_or_stand_in(scene_name, planes, points, geometry["position"])
     figure = plot_preview(scene, radar, look, geometry["position"], geometry["attitude"],
                           title=title)
     written = save_figure(figure, out, overwrite=overwrite, dpi=110)
     plt.close(figure)
     return written
+
+
+def scene_or_stand_in(scene_name: str | None, planes: list[dict], points: list,
+                      positions: np.ndarray) -> Any:
+    """The experiment's XML scene, or a stand-in: its rectangles, else a floor under the
+    targets and the track (:data:`_FLOOR_MARGIN` around them), with the targets as spheres."""
+    if scene_name is not None:
+        return load_scene(scene_name)
+    import_mitsuba()
+    if not planes:
+        corners = np.vstack([positions] + ([np.array(points)] if points else []))
+        low = corners.min(axis=0) - _FLOOR_MARGIN
+        size = corners.max(axis=0) + _FLOOR_MARGIN - low
+        floor_z = min(p[2] for p in points) if points else 0.0
+        planes = [{"origin": [low[0], low[1], floor_z], "axis_u": [1, 0, 0],
+                   "axis_v": [0, 1, 0], "size": [size[0], size[1]]}]
+    return stand_in_scene(planes, points)

@@ -29,6 +29,7 @@ from pathlib import Path
 from typing import Any
 
 import matplotlib.pyplot as plt
+import numpy as np
 
 from mitsar.ambiguity.run import run_ambiguity_experiment
 from mitsar.errors import MitsarError, ParameterError
@@ -41,6 +42,7 @@ from mitsar.experiment.runs import run_focus, run_metrics, run_simulation
 from mitsar.io import check_writable, save, write_json
 from mitsar.plots import navigation as plots_navigation
 from mitsar.plots.footprint import plot_footprint, scene_range_marks
+from mitsar.plots.preview import plot_preview
 from mitsar.plots.products import (
     background_samples,
     beam_range_marks,
@@ -52,6 +54,7 @@ from mitsar.plots.products import (
     target_marks,
 )
 from mitsar.report.html import RUN_RECORD, build_report, provenance
+from mitsar.report.preview import scene_or_stand_in
 from mitsar.scene import load_scene
 
 __all__ = ["run_experiment"]
@@ -79,6 +82,11 @@ class _Run:
 
     def warn(self, message: str) -> None:
         self.record["warnings"].append(message)
+
+
+def run_title(experiment: Experiment) -> str:
+    """A figure title for an experiment: its name or its file's stem."""
+    return experiment.name or (experiment.source.stem if experiment.source else "experiment")
 
 
 def _is_ambiguity(document: dict[str, Any]) -> bool:
@@ -183,6 +191,15 @@ def _experiment(run: _Run, experiment: Experiment, algorithms: Sequence[str] | N
         axes = plots_navigation.plot_tracks(raw)
         run.figure(axes[0].figure, "tracks.png", "True and navigation track",
                    "the echoes come from the true track; focusers know the navigation track")
+    truth = "true_" if "true_platform_position" in raw.variables else ""
+    positions = raw[f"{truth}platform_position"].values
+    shown = scene_or_stand_in(experiment.scene, [], [np.asarray(t.position, float)
+                                                     for t in experiment.targets], positions)
+    run.figure(plot_preview(shown, experiment.radar, experiment.look, positions,
+                            raw[f"{truth}attitude"].values, title=run_title(experiment)),
+               "preview.png", "Scene preview",
+               "rendered by Mitsuba, materials by kind; track, antenna and beam footprint at "
+               "the first, middle and last sweep (a stand-in floor without a scene)")
     scene = None
     if experiment.scene is not None:
         scene = load_scene(experiment.scene)
