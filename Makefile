@@ -40,6 +40,7 @@ lint: setup
 	$(VENV)/bin/ruff check .
 
 bench: setup
+	$(PY) -m pip install -q -e ".[test,bench]" || echo "bench: FastSAR could not be installed; its benchmark skips"
 	$(PY) benchmarks/run_all.py
 
 clean:
