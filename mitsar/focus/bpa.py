@@ -30,23 +30,13 @@ import xarray as xr
 from numpy.typing import NDArray
 from tqdm.auto import tqdm
 
-from mitsar.errors import ParameterError
 from mitsar.focus.aperture import (
-    aperture_half_width,
-    band_coverage,
-    doppler_bandpass,
-    full_aperture_weight,
-    is_uniform_straight_track,
-    normalise_image,
     sweep_window,
 )
 from mitsar.focus.backprojection import backproject_drjit, backproject_numpy
-from mitsar.focus.compression import range_spectrum
+from mitsar.focus.bp_setup import normalise, prepare
 from mitsar.focus.grid import track_frame
-from mitsar.focus.windows import window_coefficients
 from mitsar.model.radar import Radar
-from mitsar.model.signal import fast_time
-from mitsar.raw.product import radar_of
 
 __all__ = ["crop_to_pixels", "focus_bpa"]
 
@@ -100,66 +90,33 @@ def focus_bpa(raw: xr.Dataset, pixels: NDArray, *, half_width: float, window: st
     extra : dict
         Processing attributes for the image product.
     """
-    # 1. band selection
-    radar = radar_of(raw)
-    beam_half_width = aperture_half_width(radar, None)
-    straight = is_uniform_straight_track(raw)
-    if band_selection is None:
-        band_selection = "doppler" if straight and half_width < beam_half_width else "pixel"
-    if band_selection == "doppler" and not straight:
-        raise ParameterError("focus", "band_selection",
-                             "'pixel' for a curved track or a varying speed", band_selection)
-    positions = raw["platform_position"].values
-    velocities = raw["platform_velocity"].values
-    speed = np.linalg.norm(velocities, axis=-1)
-    centroid = np.einsum("si,si->s", raw["boresight"].values, velocities) / np.where(
-        speed > 0, speed, 1.0)
-    coefficients = window_coefficients(window)
-    mean_speed, mean_centroid = float(speed.mean()), float(centroid.mean())
-    samples = raw["raw"].values
-    if band_selection == "doppler":
-        bandwidth = 4 * mean_speed * half_width / radar.wavelength  # B_a = v / rho
-        rf_frequency = radar.carrier_frequency + radar.chirp_rate * fast_time(radar)
-        pad = int(np.ceil(4 * radar.prf / bandwidth))
-        samples = doppler_bandpass(samples, radar.prf, mean_centroid, half_width, mean_speed,
-                                   rf_frequency, coefficients, pad)
-        kernel_half_width, kernel_window = beam_half_width, window_coefficients("rect")
-    else:
-        kernel_half_width, kernel_window = half_width, coefficients
-    # 2. range compression, cropped to the pixels
-    frequency, profile = range_spectrum(
-        samples, radar, window=range_window, remove_rvp=remove_rvp, upsample=range_upsample,
-        rvp_present=bool(raw.attrs.get("rvp", 1)))
-    frequency, profile = crop_to_pixels(frequency, profile, radar, pixels, positions,
-                                        float(speed.max()))
+    # 1.-2. band selection and range compression, cropped to the pixels
+    bp = prepare(raw, half_width=half_width, window=window, range_window=range_window,
+                 remove_rvp=remove_rvp, range_upsample=range_upsample,
+                 band_selection=band_selection)
+    radar, positions = bp.radar, bp.positions
+    frequency, profile = crop_to_pixels(bp.frequency, bp.profile, radar, pixels, positions,
+                                        float(bp.speed.max()))
     # 3. back-projection in pixel chunks
     origin, direction, _ = track_frame(raw)
     chunks = tqdm([slice(start, start + pixel_chunk)
                    for start in range(0, len(pixels), pixel_chunk)],
                   disable=not progress, desc="back-projection", unit="chunk")
     arguments = (profile, frequency, radar)
-    common = (positions, velocities, centroid, kernel_half_width, kernel_window,
+    common = (positions, bp.velocities, bp.centroid, bp.kernel_half_width, bp.kernel_window,
               motion_correction)
     if backend == "numpy":
         results = [backproject_numpy(*arguments, pixels[c], *common) for c in chunks]
     else:
         ranges = None
-        if straight:
-            ranges = sweep_window(pixels, origin, direction, mean_speed / radar.prf,
-                                  len(positions), mean_centroid, kernel_half_width)
+        if bp.straight:
+            ranges = sweep_window(pixels, origin, direction, bp.mean_speed / radar.prf,
+                                  len(positions), bp.mean_centroid, bp.kernel_half_width)
         results = [backproject_drjit(*arguments, pixels[c], *common, sweep_range=None
                                      if ranges is None else (ranges[0][c], ranges[1][c]))
                    for c in chunks]
     # 4. normalisation by the full-aperture weight
     sums, totals = zip(*results, strict=True)
-    geometry = (pixels, origin, direction, mean_speed, radar.prf, mean_centroid)
-    signal_weight = full_aperture_weight(*geometry, half_width, float(coefficients[0]))
-    total = np.concatenate(totals)
-    if band_selection == "doppler":
-        track_length = float((positions[-1] - origin) @ direction)
-        coverage = band_coverage(pixels, origin, direction, track_length, mean_centroid,
+    values, coverage = normalise(bp, raw, pixels, np.concatenate(sums), np.concatenate(totals),
                                  half_width)
-        values = np.concatenate(sums) / np.where(signal_weight > 0, signal_weight, 1.0)
-    else:
-        values, coverage = normalise_image(np.concatenate(sums), total, signal_weight)
-    return values, coverage, {"band_selection": band_selection}
+    return values, coverage, {"band_selection": bp.band_selection}

@@ -70,12 +70,6 @@ from tqdm.auto import tqdm
 from mitsar.backend import require_llvm
 from mitsar.errors import ParameterError
 from mitsar.focus.aperture import (
-    aperture_half_width,
-    band_coverage,
-    doppler_bandpass,
-    full_aperture_weight,
-    is_uniform_straight_track,
-    normalise_image,
     sweep_window,
 )
 from mitsar.focus.backprojection import (
@@ -85,13 +79,10 @@ from mitsar.focus.backprojection import (
     interpolate,
     jit_array,
 )
+from mitsar.focus.bp_setup import normalise, prepare
 from mitsar.focus.bpa import crop_to_pixels
-from mitsar.focus.compression import range_spectrum
 from mitsar.focus.grid import track_frame
-from mitsar.focus.windows import window_coefficients
 from mitsar.model.radar import SPEED_OF_LIGHT
-from mitsar.model.signal import fast_time
-from mitsar.raw.product import radar_of
 
 __all__ = ["FFBP_DEFAULTS", "focus_ffbp"]
 
@@ -160,40 +151,19 @@ def focus_ffbp(raw: xr.Dataset, layout_or_pixels: dict | NDArray, *, half_width:
     require_llvm()
     settings = _options(options)
     pixels = _pixel_array(layout_or_pixels)
-    radar = radar_of(raw)
-    beam_half_width = aperture_half_width(radar, None)
-    straight = is_uniform_straight_track(raw)
-    if band_selection is None:
-        band_selection = "doppler" if straight and half_width < beam_half_width else "pixel"
-    if band_selection == "doppler" and not straight:
-        raise ParameterError("focus", "band_selection",
-                             "'pixel' for a curved track or a varying speed", band_selection)
-    if band_selection == "pixel" and half_width < beam_half_width:
+    bp = prepare(raw, half_width=half_width, window=window, range_window=range_window,
+                 remove_rvp=remove_rvp, range_upsample=range_upsample,
+                 band_selection=band_selection)
+    if bp.band_selection == "pixel" and half_width < bp.beam_half_width:
         raise ParameterError(
             "focus", "azimuth_resolution",
             "the whole beam (None) for FFBP on a curved track or a varying speed: a narrower "
             "band is cut per pixel and sweep, which polar sub-aperture images cannot hold "
             "(use algorithm='bpa')", f"a half width of {half_width:.4g} in direction sine")
-    positions = raw["platform_position"].values
-    velocities = raw["platform_velocity"].values
-    speed = np.linalg.norm(velocities, axis=-1)
-    centroid = np.einsum("si,si->s", raw["boresight"].values, velocities) / np.where(
-        speed > 0, speed, 1.0)
-    coefficients = window_coefficients(window)
-    mean_speed, mean_centroid = float(speed.mean()), float(centroid.mean())
-    samples = raw["raw"].values
-    if band_selection == "doppler":
-        bandwidth = 4 * mean_speed * half_width / radar.wavelength
-        rf_frequency = radar.carrier_frequency + radar.chirp_rate * fast_time(radar)
-        pad = int(np.ceil(4 * radar.prf / bandwidth))
-        samples = doppler_bandpass(samples, radar.prf, mean_centroid, half_width, mean_speed,
-                                   rf_frequency, coefficients, pad)
-        kernel_half_width, kernel_window = beam_half_width, window_coefficients("rect")
-    else:
-        kernel_half_width, kernel_window = half_width, coefficients
-    frequency, profile = range_spectrum(
-        samples, radar, window=range_window, remove_rvp=remove_rvp, upsample=range_upsample,
-        rvp_present=bool(raw.attrs.get("rvp", 1)))
+    radar, positions, velocities = bp.radar, bp.positions, bp.velocities
+    frequency, profile = bp.frequency, bp.profile
+    mean_speed, mean_centroid = bp.mean_speed, bp.mean_centroid
+    kernel_half_width, kernel_window = bp.kernel_half_width, bp.kernel_window
 
     # Geometry relative to a local origin near the pixels (float32 kernels; docs/focusing.md).
     origin_local = pixels.mean(axis=0)
@@ -215,11 +185,11 @@ def focus_ffbp(raw: xr.Dataset, layout_or_pixels: dict | NDArray, *, half_width:
     flat_nodes = nodes.reshape(-1, 3) + origin_local
     node_count = stage.shape[0] * stage.shape[1]
     frequency, profile = crop_to_pixels(frequency, profile, radar, flat_nodes, positions,
-                                        float(speed.max()))
+                                        float(bp.speed.max()))
     sweep_range = (np.repeat(stage.first, node_count).astype(np.uint32),
                    np.repeat(stage.end, node_count).astype(np.uint32))
     sums, totals = backproject_drjit(profile, frequency, radar, flat_nodes, positions,
-                                     velocities, centroid, kernel_half_width, kernel_window,
+                                     velocities, bp.centroid, kernel_half_width, kernel_window,
                                      motion_correction, sweep_range=sweep_range)
     rho = np.linalg.norm(nodes - stage.centre[:, None, None, :], axis=-1)
     stage.values = (sums.reshape(nodes.shape[:3])
@@ -247,7 +217,7 @@ def focus_ffbp(raw: xr.Dataset, layout_or_pixels: dict | NDArray, *, half_width:
 
     # Final stage: onto the pixels, with the azimuth window per sub-aperture.
     local_pixels = pixels - origin_local
-    if straight:
+    if bp.straight:
         origin, direction, _ = track_frame(raw)
         first, end = sweep_window(pixels, origin, direction, mean_speed / radar.prf,
                                   len(positions), mean_centroid, kernel_half_width)
@@ -264,17 +234,8 @@ def focus_ffbp(raw: xr.Dataset, layout_or_pixels: dict | NDArray, *, half_width:
     bar.update()
     bar.close()
 
-    origin, direction, _ = track_frame(raw)
-    geometry = (pixels, origin, direction, mean_speed, radar.prf, mean_centroid)
-    signal_weight = full_aperture_weight(*geometry, half_width, float(coefficients[0]))
-    if band_selection == "doppler":
-        track_length = float((positions[-1] - origin) @ direction)
-        coverage = band_coverage(pixels, origin, direction, track_length, mean_centroid,
-                                 half_width)
-        values = merged / np.where(signal_weight > 0, signal_weight, 1.0)
-    else:
-        values, coverage = normalise_image(merged, total, signal_weight)
-    extra = {"band_selection": band_selection, "ffbp_stages": len(stages),
+    values, coverage = normalise(bp, raw, pixels, merged, total, half_width)
+    extra = {"band_selection": bp.band_selection, "ffbp_stages": len(stages),
              **{f"ffbp_{key}": value for key, value in settings.items()}}
     return values, coverage, extra
 

@@ -1,0 +1,140 @@
+"""What every back-projection focuser does before and after its sum (BPA, FFBP).
+
+:func:`prepare` (steps 1-2 of :mod:`mitsar.focus.bpa`): the band selection — ``"doppler"``
+band-pass of the processed azimuth band on straight uniform tracks whose band is narrower than
+the beam (:func:`mitsar.focus.aperture.doppler_bandpass`), ``"pixel"`` weighting by each
+sweep's direction sine otherwise — and the range compression on a zero-padded, sweep-centred
+FFT (:func:`mitsar.focus.compression.range_spectrum`; paper eq. 1).
+
+:func:`normalise` (step 4): division by the weight a full aperture would have
+(:func:`mitsar.focus.aperture.full_aperture_weight`), so that a point of amplitude a focuses to
+about a, and the aperture coverage of every pixel.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import xarray as xr
+from numpy.typing import NDArray
+
+from mitsar.errors import ParameterError
+from mitsar.focus.aperture import (
+    aperture_half_width,
+    band_coverage,
+    doppler_bandpass,
+    full_aperture_weight,
+    is_uniform_straight_track,
+    normalise_image,
+)
+from mitsar.focus.compression import range_spectrum
+from mitsar.focus.grid import track_frame
+from mitsar.focus.windows import window_coefficients
+from mitsar.model.radar import Radar
+from mitsar.model.signal import fast_time
+from mitsar.raw.product import radar_of
+
+__all__ = ["Prepared", "normalise", "prepare"]
+
+
+@dataclass
+class Prepared:
+    """Range profiles and per-sweep geometry of a back-projection, after band selection.
+
+    ``kernel_half_width`` and ``kernel_window`` are what the BP sum windows by (the whole beam
+    and no window after a Doppler band-pass, else the processed band and its window);
+    ``coefficients`` the cosine series of the processed window.
+    """
+
+    radar: Radar
+    band_selection: str
+    straight: bool
+    positions: NDArray[np.float64]
+    velocities: NDArray[np.float64]
+    speed: NDArray[np.float64]
+    centroid: NDArray[np.float64]
+    mean_speed: float
+    mean_centroid: float
+    beam_half_width: float
+    coefficients: NDArray[np.float64]
+    kernel_half_width: float
+    kernel_window: NDArray[np.float64]
+    frequency: NDArray[np.float64]
+    profile: NDArray[np.complex128]
+
+
+def prepare(raw: xr.Dataset, *, half_width: float, window: str, range_window: str,
+            remove_rvp: bool, range_upsample: int, band_selection: str | None = None
+            ) -> Prepared:
+    """Band selection and range compression of a raw product for a BP sum (module docstring).
+
+    Parameters
+    ----------
+    raw : xarray.Dataset
+        Raw product.
+    half_width : float
+        Processed half width in direction sine, ``lambda / (4 rho)``.
+    window, range_window : str
+        Azimuth and range windows.
+    remove_rvp : bool
+        Remove the residual video phase.
+    range_upsample : int
+        Zero-padding factor of the range FFT.
+    band_selection : {"doppler", "pixel"} or None
+        Default: "doppler" on straight uniform tracks with a band narrower than the beam.
+
+    Raises
+    ------
+    ParameterError
+        ``band_selection="doppler"`` on a curved track or a varying speed.
+    """
+    radar = radar_of(raw)
+    beam_half_width = aperture_half_width(radar, None)
+    straight = is_uniform_straight_track(raw)
+    if band_selection is None:
+        band_selection = "doppler" if straight and half_width < beam_half_width else "pixel"
+    if band_selection == "doppler" and not straight:
+        raise ParameterError("focus", "band_selection",
+                             "'pixel' for a curved track or a varying speed", band_selection)
+    positions = raw["platform_position"].values
+    velocities = raw["platform_velocity"].values
+    speed = np.linalg.norm(velocities, axis=-1)
+    centroid = np.einsum("si,si->s", raw["boresight"].values, velocities) / np.where(
+        speed > 0, speed, 1.0)
+    coefficients = window_coefficients(window)
+    mean_speed, mean_centroid = float(speed.mean()), float(centroid.mean())
+    samples = raw["raw"].values
+    if band_selection == "doppler":
+        bandwidth = 4 * mean_speed * half_width / radar.wavelength  # B_a = v / rho
+        rf_frequency = radar.carrier_frequency + radar.chirp_rate * fast_time(radar)
+        pad = int(np.ceil(4 * radar.prf / bandwidth))
+        samples = doppler_bandpass(samples, radar.prf, mean_centroid, half_width, mean_speed,
+                                   rf_frequency, coefficients, pad)
+        kernel_half_width, kernel_window = beam_half_width, window_coefficients("rect")
+    else:
+        kernel_half_width, kernel_window = half_width, coefficients
+    frequency, profile = range_spectrum(
+        samples, radar, window=range_window, remove_rvp=remove_rvp, upsample=range_upsample,
+        rvp_present=bool(raw.attrs.get("rvp", 1)))
+    return Prepared(radar=radar, band_selection=band_selection, straight=straight,
+                    positions=positions, velocities=velocities, speed=speed, centroid=centroid,
+                    mean_speed=mean_speed, mean_centroid=mean_centroid,
+                    beam_half_width=beam_half_width, coefficients=coefficients,
+                    kernel_half_width=kernel_half_width, kernel_window=kernel_window,
+                    frequency=frequency, profile=profile)
+
+
+def normalise(prepared: Prepared, raw: xr.Dataset, pixels: NDArray, sums: NDArray,
+              totals: NDArray, half_width: float) -> tuple[NDArray, NDArray]:
+    """Image values and aperture coverage from the BP sums and weight totals (module doc)."""
+    origin, direction, _ = track_frame(raw)
+    p = prepared
+    signal_weight = full_aperture_weight(pixels, origin, direction, p.mean_speed, p.radar.prf,
+                                         p.mean_centroid, half_width, float(p.coefficients[0]))
+    if p.band_selection == "doppler":
+        track_length = float((p.positions[-1] - origin) @ direction)
+        coverage = band_coverage(pixels, origin, direction, track_length, p.mean_centroid,
+                                 half_width)
+        return sums / np.where(signal_weight > 0, signal_weight, 1.0), coverage
+    return normalise_image(sums, totals, signal_weight)
