@@ -177,6 +177,20 @@ def backproject_numpy(profile: NDArray, frequency: NDArray, radar: Radar, pixels
     return pulse_sum(profile, frequency, delay, beat, weight, radar.carrier_frequency)
 
 
+def _kernel_inputs(pixels: NDArray, sweeps: int, velocities: NDArray, window: NDArray,
+                   sweep_range: tuple[NDArray, NDArray] | None) -> tuple:
+    """Per-pixel sweep ranges (default all), speed and unit direction per sweep, and the
+    window's cosine series padded to the kernels' four coefficients."""
+    if sweep_range is None:
+        sweep_range = (np.zeros(len(pixels), dtype=np.uint32),
+                       np.full(len(pixels), sweeps, dtype=np.uint32))
+    speed = np.linalg.norm(velocities, axis=-1)
+    direction = velocities / np.where(speed > 0, speed, 1.0)[:, None]
+    coefficients = np.zeros(4)
+    coefficients[: len(window)] = window
+    return sweep_range, speed, direction, coefficients
+
+
 def _backproject_double(profile: NDArray, frequency: NDArray, radar: Radar, pixels: NDArray,
                         positions: NDArray, velocities: NDArray, centroid_sine: NDArray,
                         half_width: float, window: NDArray, motion_correction: bool,
@@ -185,13 +199,8 @@ def _backproject_double(profile: NDArray, frequency: NDArray, radar: Radar, pixe
     """The float64 kernel: geometry and phase in float64, sin/cos of the wrapped phase in
     float32 (1e-6 of the peak from :func:`backproject_numpy`)."""
     sweeps, bins = profile.shape
-    if sweep_range is None:
-        sweep_range = (np.zeros(len(pixels), dtype=np.uint32),
-                       np.full(len(pixels), sweeps, dtype=np.uint32))
-    speed = np.linalg.norm(velocities, axis=-1)
-    direction = velocities / np.where(speed > 0, speed, 1.0)[:, None]
-    coefficients = np.zeros(4)
-    coefficients[: len(window)] = window
+    sweep_range, speed, direction, coefficients = _kernel_inputs(pixels, sweeps, velocities,
+                                                                 window, sweep_range)
 
     def opaque(value: float) -> Float64:
         return dr.opaque(Float64, float(value))
@@ -254,15 +263,10 @@ def backproject_drjit(profile: NDArray, frequency: NDArray, radar: Radar, pixels
                                    centroid_sine, half_width, window, motion_correction,
                                    sweep_range)
     sweeps, bins = profile.shape
-    if sweep_range is None:
-        sweep_range = (np.zeros(len(pixels), dtype=np.uint32),
-                       np.full(len(pixels), sweeps, dtype=np.uint32))
+    sweep_range, speed, direction, coefficients = _kernel_inputs(pixels, sweeps, velocities,
+                                                                 window, sweep_range)
     first, end = (np.asarray(r, dtype=np.int64) for r in sweep_range)
     order, tables = block_tables(pixels, positions, first, end, radar, frequency, block)
-    speed = np.linalg.norm(velocities, axis=-1)
-    direction = velocities / np.where(speed > 0, speed, 1.0)[:, None]
-    coefficients = np.zeros(4)
-    coefficients[: len(window)] = window
 
     def opaque(value: float) -> Float32:
         return dr.opaque(Float32, float(value))
