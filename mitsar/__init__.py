@@ -6,6 +6,7 @@ the stages: model → scene → raw → focus → quality, with ambiguity maps b
 
 from mitsar import ambiguity
 from mitsar.errors import MitsarError, ParameterError
+from mitsar.export import read_cphd
 from mitsar.focus import grid
 from mitsar.focus.compression import range_compress
 from mitsar.focus.dispatch import focus
@@ -25,6 +26,6 @@ __all__ = [
     "Background", "Look", "MitsarError", "NavigationErrors", "ParameterError", "PointTarget",
     "Radar", "Trajectory", "Vibration", "__version__", "ambiguity", "boresight", "focus", "grid",
     "histogram_to_raw_product", "load", "measure_impulse_response", "range_compress",
-    "raw_from_arrays", "read_gotcha", "read_raw", "save", "simulate_point_targets",
+    "raw_from_arrays", "read_cphd", "read_gotcha", "read_raw", "save", "simulate_point_targets",
     "simulate_scene", "trace",
 ]

@@ -47,6 +47,7 @@ from mitsar.experiment.options import (
 from mitsar.experiment.paper import PAPER_TABLES
 from mitsar.experiment.rays import run_rays
 from mitsar.experiment.runs import run_focus, run_metrics, run_simulation
+from mitsar.export import write_cphd, write_sicd
 from mitsar.focus.compression import range_compress
 from mitsar.io import ProductFileError, check_writable, load, save, to_jsonable, write_json
 from mitsar.plots.products import (
@@ -159,6 +160,22 @@ def cmd_focus(args: argparse.Namespace) -> int:
     shape = " x ".join(f"{image.sizes[d]} {d}" for d in image["image"].dims)
     _log(args, f"wrote {args.output}: image product, {shape} "
                f"({time.perf_counter() - start:.1f} s)")
+    return 0
+
+
+def cmd_export(args: argparse.Namespace) -> int:
+    """``mitsar export``: image product -> SICD, raw product -> CPHD (docs/products.md)."""
+    check_writable(args.output, args.overwrite)
+    if args.format == "sicd":
+        if not args.raw:
+            raise MitsarError("mitsar export -f sicd: pass --raw RAW.nc, the raw product the "
+                              "image was focused from (SICD needs the antenna track)")
+        written = write_sicd(load(args.product, product="image"), args.output,
+                             raw=load(args.raw, product="raw"), overwrite=args.overwrite)
+    else:
+        written = write_cphd(load(args.product, product="raw"), args.output,
+                             overwrite=args.overwrite)
+    _log(args, f"wrote {written}: {args.format.upper()}")
     return 0
 
 
@@ -466,6 +483,16 @@ def build_parser() -> argparse.ArgumentParser:
                      help="output grid: a TOML file with a [grid] table (or [focus.grid])")
     sub.add_argument("--default-grid", action="store_true",
                      help="use the algorithm's default slant grid (ignore the experiment's)")
+
+    sub = _file_command(commands, common, "export", cmd_export,
+                        "write an NGA SICD (image) or CPHD (raw) file",
+                        "Export an image product as SICD 1.4.0 or a raw product as CPHD 1.0.1 "
+                        "(needs mitsar[nga]; docs/products.md).", ("product", "PRODUCT.nc"),
+                        "SICD (.nitf) or CPHD (.cphd) file to write")
+    sub.add_argument("-f", "--format", choices=("sicd", "cphd"), required=True,
+                     help="output format")
+    sub.add_argument("--raw", metavar="RAW.nc",
+                     help="sicd: the raw product the image was focused from")
 
     sub = _file_command(commands, common, "metrics", cmd_metrics, "IRW, PSLR, ISLR of a target",
                         "Impulse-response metrics of a point target.", ("image", "IMAGE.nc"),
