@@ -123,3 +123,20 @@ def test_hovering_platform_is_refused(raw):
     hovering["platform_velocity"] = hovering["platform_velocity"] * 0.0
     with pytest.raises(mitsar.ParameterError, match="'platform_velocity'"):
         mitsar.focus(hovering, azimuth_resolution=0.1)
+
+
+def test_foreign_inputs_get_mitsars_errors(raw):
+    """What a fuzz campaign found raising TypeError or failing inside NumPy (issue 15)."""
+    with pytest.raises(mitsar.ParameterError, match="raw"):
+        mitsar.focus(np.zeros(3))
+    with pytest.raises(mitsar.ParameterError, match="range_upsample"):
+        mitsar.focus(raw, range_upsample=0)
+    with pytest.raises(mitsar.ParameterError, match="off_nadir_deg"):
+        mitsar.Look("x")
+    with pytest.raises(mitsar.ParameterError, match="off_nadir_deg"):
+        mitsar.Look(None)
+    with pytest.raises(mitsar.ParameterError, match="points"):
+        mitsar.Trajectory.waypoints([[0, 0, 1], [1, 0]], 0.5)
+    with pytest.raises(mitsar.ParameterError, match="targets"):
+        mitsar.simulate_point_targets(RADAR, mitsar.Trajectory.linear(START, [0.5, 0, 0], 0.1),
+                                      LOOK, mitsar.PointTarget(TARGET))

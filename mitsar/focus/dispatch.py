@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
+from mitsar import checks
 from mitsar.errors import ParameterError
 from mitsar.focus.aperture import aperture_half_width
 from mitsar.focus.autofocus import PulseSettings, make_options, run_autofocus
@@ -92,8 +93,15 @@ def focus(raw: xr.Dataset, algorithm: str = "bpa", grid: Grid | dict | None = No
         positions), attributes ``range_resolution``, ``azimuth_resolution``, ``range_axis``,
         ``azimuth_axis``, grid description and provenance.
     """
+    if not isinstance(raw, xr.Dataset):
+        raise ParameterError("focus", "raw", "a raw product (xarray.Dataset from "
+                             "mitsar.simulate_point_targets, simulate_scene, read_raw, load)",
+                             type(raw))
     if algorithm not in ALGORITHMS:
         raise ParameterError("focus", "algorithm", f"one of {ALGORITHMS}", algorithm)
+    checks.integer("focus", "range_upsample", range_upsample, 1)
+    if pixel_chunk is not None:
+        checks.integer("focus", "pixel_chunk", pixel_chunk, 1)
     if window not in WINDOWS:
         raise ParameterError("focus", "window", f"one of {WINDOWS}", window)
     range_window = window if range_window is None else range_window

@@ -134,7 +134,14 @@ def simulate_point_targets(radar: Radar, trajectory: Trajectory, look: Look,
     >>> raw["raw"].dims
     ('sweep', 'sample')
     """
-    targets = list(targets)
+    if isinstance(targets, PointTarget):
+        raise ParameterError("simulate_point_targets", "targets", "a list of mitsar.PointTarget "
+                             "(wrap a single target: [target])", "one PointTarget")
+    try:
+        targets = list(targets)
+    except TypeError:
+        raise ParameterError("simulate_point_targets", "targets", "a list of mitsar.PointTarget",
+                             type(targets)) from None
     _check_inputs(radar, trajectory, look, targets, background)
     if backend not in ("drjit", "numpy"):
         raise ParameterError("simulate_point_targets", "backend", "'drjit' or 'numpy'", backend)

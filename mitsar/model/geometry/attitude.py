@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from mitsar.checks import finite
 from mitsar.errors import ParameterError
 
 
@@ -90,6 +91,8 @@ class Look:
     squint_deg: float = 0.0
 
     def __post_init__(self) -> None:
+        finite("Look", "off_nadir_deg", self.off_nadir_deg, "an angle in [0, 180) deg")
+        finite("Look", "squint_deg", self.squint_deg, "an angle in (-90, 90) deg")
         if not 0.0 <= self.off_nadir_deg < 180.0:
             raise ParameterError("Look", "off_nadir_deg", "an angle in [0, 180) deg",
                                  self.off_nadir_deg)

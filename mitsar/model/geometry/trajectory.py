@@ -79,7 +79,11 @@ class Trajectory:
     @classmethod
     def waypoints(cls, points: ArrayLike, speed: float) -> Trajectory:
         """Straight legs between waypoints flown at constant ``speed`` [m/s]."""
-        points = np.asarray(points, dtype=float)
+        try:
+            points = np.asarray(points, dtype=float)
+        except (TypeError, ValueError):
+            raise ParameterError("Trajectory", "points", "at least 2 waypoints of 3 numbers "
+                                 "[m] (a list of [x, y, z])", points) from None
         if points.ndim != 2 or points.shape[1] != 3 or len(points) < 2:
             raise ParameterError("Trajectory", "points", "at least 2 waypoints of 3 numbers",
                                  points.tolist())
