@@ -58,3 +58,11 @@ def test_prf_below_doppler_bandwidth_is_refused():
 def test_attrs_round_trip():
     radar = mitsar.Radar(prf=500.0, max_range=15.0, noise_figure_db=8.0)
     assert mitsar.Radar.from_attrs(radar.to_attrs()) == radar
+
+
+@pytest.mark.parametrize(("name", "value"), [("transmit_power", 1e300), ("antenna_width", 1e300),
+                                             ("sampling_frequency", 1e15)])
+def test_impossible_radars_are_refused_before_any_compute(name, value):
+    """Found by the fuzz campaign (issue 15): these overflowed or asked for petabytes later."""
+    with pytest.raises(mitsar.ParameterError, match=name):
+        mitsar.Radar(**{name: value})

@@ -24,6 +24,18 @@ REFERENCE_TEMPERATURE = 290.0
 """Reference noise temperature T0 [K] of the noise figure."""
 
 
+MAX_SAMPLES_PER_SWEEP = 10**6
+"""Largest number of fast-time samples per sweep (16 MB of complex samples)."""
+
+_UPPER_BOUNDS = (
+    ("transmit_power", 1e3, "W", "a drone's radar; 1e300 W overflows the radar equation"),
+    ("antenna_width", 10.0, "m", "an antenna a drone can carry"),
+    ("antenna_length", 10.0, "m", "an antenna a drone can carry"),
+    ("carrier_frequency", 1e13, "Hz", "radio frequencies up to 10 THz"),
+)
+"""Physical upper bounds on parameters that are otherwise only required to be positive."""
+
+
 @dataclass(frozen=True)
 class Radar:
     """An FMCW SAR sensor: waveform, sampling and antenna (paper Table 1 defaults).
@@ -85,9 +97,19 @@ class Radar:
                 raise ParameterError("Radar", name, "None or a beamwidth in (0, 180) deg", value)
         if self.noise_figure_db is not None:
             finite("Radar", "noise_figure_db", self.noise_figure_db, "None or a finite dB value")
+        for name, limit, unit, why in _UPPER_BOUNDS:
+            if getattr(self, name) > limit:
+                raise ParameterError("Radar", name, f"<= {limit:g} {unit} ({why})",
+                                     getattr(self, name))
         if self.bandwidth >= self.carrier_frequency:
             raise ParameterError("Radar", "bandwidth", f"< carrier_frequency "
                                  f"({self.carrier_frequency:g} Hz)", self.bandwidth)
+        if self.samples_per_sweep > MAX_SAMPLES_PER_SWEEP:
+            raise ParameterError("Radar", "sampling_frequency",
+                                 f"<= {MAX_SAMPLES_PER_SWEEP * self.prf:g} Hz at PRF "
+                                 f"{self.prf:g} Hz (at most {MAX_SAMPLES_PER_SWEEP} samples per "
+                                 "sweep: one sweep of raw data must fit in memory)",
+                                 self.sampling_frequency)
         if self.samples_per_sweep < 8:
             raise ParameterError("Radar", "sampling_frequency",
                                  f">= 8 * prf = {8 * self.prf:g} Hz (at least 8 samples per sweep)",
