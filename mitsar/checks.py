@@ -17,7 +17,7 @@ from numpy.typing import NDArray
 
 from mitsar.errors import ParameterError
 
-__all__ = ["boolean", "finite", "integer", "is_real", "positive", "vector"]
+__all__ = ["KnownFields", "boolean", "finite", "integer", "is_real", "positive", "vector"]
 
 
 def is_real(value: object) -> bool:
@@ -90,3 +90,17 @@ def vector(where: str, name: str, value: Any, length: int = 3,
     if array.shape != (length,) or not np.all(np.isfinite(array)):
         raise ParameterError(where, name, expected or f"{length} finite numbers", value)
     return array
+
+
+class KnownFields(type):
+    """Metaclass of mitsar's parameter records (dataclasses): a keyword that is not a field is
+    refused with a :class:`ParameterError` naming it and the fields there are, instead of
+    Python's bare ``TypeError``."""
+
+    def __call__(cls, *args: Any, **kwargs: Any) -> Any:
+        fields = getattr(cls, "__dataclass_fields__", {})
+        known = [name for name in fields if not name.startswith("_")]
+        unknown = sorted(set(kwargs) - set(fields))
+        if unknown:
+            raise ParameterError(cls.__name__, unknown[0], f"one of {known}", kwargs[unknown[0]])
+        return super().__call__(*args, **kwargs)

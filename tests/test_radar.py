@@ -66,3 +66,12 @@ def test_impossible_radars_are_refused_before_any_compute(name, value):
     """Found by the fuzz campaign (issue 15): these overflowed or asked for petabytes later."""
     with pytest.raises(mitsar.ParameterError, match=name):
         mitsar.Radar(**{name: value})
+
+
+def test_unknown_keywords_are_named():
+    with pytest.raises(mitsar.ParameterError, match="bogus"):
+        mitsar.Radar(bogus=1)
+    with pytest.raises(mitsar.ParameterError, match="off_nadir"):
+        mitsar.Look(off_nadir=55.0)
+    with pytest.raises(mitsar.ParameterError, match="vibrations"):
+        mitsar.NavigationErrors(vibrations=())

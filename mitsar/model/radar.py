@@ -11,7 +11,7 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-from mitsar.checks import finite, is_real, positive
+from mitsar.checks import KnownFields, finite, is_real, positive
 from mitsar.errors import ParameterError
 
 SPEED_OF_LIGHT = 299_792_458.0
@@ -37,7 +37,7 @@ _UPPER_BOUNDS = (
 
 
 @dataclass(frozen=True)
-class Radar:
+class Radar(metaclass=KnownFields):
     """An FMCW SAR sensor: waveform, sampling and antenna (paper Table 1 defaults).
 
     Parameters

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mitsar.checks import finite
+from mitsar.checks import KnownFields, finite
 from mitsar.errors import ParameterError
 
 
@@ -71,7 +71,7 @@ def body_to_world(heading: ArrayLike, pitch: ArrayLike, roll: ArrayLike) -> NDAr
 
 
 @dataclass(frozen=True)
-class Look:
+class Look(metaclass=KnownFields):
     """Antenna mounting on the platform: off-nadir and squint angles.
 
     Parameters

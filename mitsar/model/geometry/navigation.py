@@ -55,7 +55,7 @@ def _non_negative_vector(name: str, value: Any, unit: str) -> tuple[float, float
 
 
 @dataclass(frozen=True)
-class Vibration:
+class Vibration(metaclass=checks.KnownFields):
     """A sinusoidal error ``amplitude sin(2 pi frequency t + phase)``.
 
     Attributes
@@ -93,7 +93,7 @@ class Vibration:
 
 
 @dataclass(frozen=True)
-class NavigationErrors:
+class NavigationErrors(metaclass=checks.KnownFields):
     """What the navigation track records minus what the platform flies (seeded processes).
 
     Every field defaults to "no error"; units are SI except the attitude fields (degrees, as
