@@ -6,6 +6,8 @@ module                                kind       XML type name
 ``bsdfs.doublelobe``                  BSDF       ``doublelobe``: radar material (paper eqs. 8-11)
 ``bsdfs.pointtarget``                 BSDF       ``pointtarget``: a small shape as one ideal
                                                  point scatterer
+``bsdfs.radio_material``              BSDF       ``itu-radio-material``, ``radio-material``:
+                                                 Sionna RT's materials (Fresnel + double lobe)
 ``integrators.radar`` (by stage)      integrator ``radar``: range histograms of an acquisition
 ===================================== ========== ==============================================
 

@@ -84,6 +84,7 @@ def ensure_variant(variant: str | None = None) -> str:
 
 PLUGIN_MODULES: tuple[str, ...] = ("mitsar.plugins.bsdfs.doublelobe",
                                    "mitsar.plugins.bsdfs.pointtarget",
+                                   "mitsar.plugins.bsdfs.radio_material",
                                    "mitsar.plugins.integrators.radar.integrator")
 """The plugin modules, in registration order. They are imported by name once a variant is set
 (Mitsuba's classes exist per variant), so the scene stage names them without importing them."""
@@ -116,7 +117,8 @@ def register_plugins(variant: str | None = None) -> str:
     """Register mitsar's Mitsuba plugins for the active variant (idempotent).
 
     Registers every plugin of :mod:`mitsar.plugins` (``doublelobe``, ``pointtarget``,
-    ``radar``) and installs a variant callback so that a later ``mi.set_variant`` to a
+    ``itu-radio-material``, ``radio-material``, ``radar``) and installs a variant callback so
+    that a later ``mi.set_variant`` to a
     supported variant registers them again.
 
     Parameters

@@ -44,6 +44,7 @@ __all__ = [
     "bistatic_lobe_tables",
     "monostatic_sigma0_table",
     "preset_names",
+    "specular_field_table",
 ]
 
 SIGMA0_LAWS = ("constant", "lambert")
@@ -339,6 +340,27 @@ class DoubleLobe:
         """``Γ² S²``, the fraction scattered into the two lobes [-]."""
         return self.gamma2 * self.scattering**2
 
+    def gamma2_at(self, cos_theta_i: Any) -> Any:
+        """``Γ²`` at incidence cosine ``cos_theta_i`` [-].
+
+        The double-lobe material's Γ does not depend on the incidence: this returns the float
+        :attr:`gamma2` (it broadcasts). Materials with a Fresnel reflection
+        (:class:`~mitsar.model.doublelobe.radio.RadioMaterial`) return an array.
+        """
+        return self.gamma2
+
+    def scattered_fraction_at(self, cos_theta_i: Any) -> Any:
+        """``Γ²(θ_i) S²``, the fraction scattered into the two lobes at ``cos_theta_i`` [-]."""
+        return self.gamma2_at(cos_theta_i) * self.scattering**2
+
+    def specular_field(self, cos_theta_i: Any) -> Any:
+        """Specular field factor ``Γ(θ_i) R`` of a reflection at ``cos_theta_i`` [-].
+
+        What the ray tracer multiplies a ray's field by at each specular reflection
+        (docs/design.md §5.4), through :func:`specular_field_table`.
+        """
+        return np.sqrt(self.gamma2_at(cos_theta_i)) * self.reflection
+
     @property
     def sigma0_linear(self) -> float | None:
         """``10^(sigma0_db/10)`` or None [m²/m²]."""
@@ -378,9 +400,10 @@ class DoubleLobe:
             Incidence cosine; the lobe shares depend on it for the joint normalisation.
         """
         share_b, share_f = self.lobe_shares(cos_theta_i)
-        scattered = self.scattered_fraction
-        return PowerSplit(specular=self.specular_fraction, back=scattered * share_b,
-                          forward=scattered * share_f, loss=1.0 - self.gamma2)
+        gamma2 = self.gamma2_at(cos_theta_i)
+        scattered = gamma2 * self.scattering**2
+        return PowerSplit(specular=gamma2 * self.reflection**2, back=scattered * share_b,
+                          forward=scattered * share_f, loss=1.0 - gamma2)
 
     def pattern(self, k_i: Any, k_s: Any, normal: Any) -> np.ndarray:
         """Normalised pattern ``f(k_i, k_s)`` [1/sr]; 0 for ``k_s`` behind the surface.
@@ -398,7 +421,7 @@ class DoubleLobe:
     def sigma0(self, k_i: Any, k_s: Any, normal: Any) -> np.ndarray:
         """Bistatic scattering coefficient of the lobe model, ``4π Γ² S² cos θ_i f`` [m²/m²]."""
         cos_i = scattering_cosines(k_i, k_s, normal)[0]
-        return sigma0_from_pattern(self.scattered_fraction, cos_i,
+        return sigma0_from_pattern(self.scattered_fraction_at(cos_i), cos_i,
                                    self.pattern(k_i, k_s, normal))
 
     def sigma0_monostatic_model(self, cos_theta_i: Any) -> np.ndarray:
@@ -409,7 +432,7 @@ class DoubleLobe:
         c = np.clip(np.abs(np.asarray(cos_theta_i, dtype=np.float64)), 0.0, 1.0)
         w_b, w_f = self.weights(c)
         f = double_lobe_pattern(1.0, 2.0 * c * c - 1.0, w_b, w_f, self.alpha_b, self.alpha_f)
-        return np.where(c > 0.0, sigma0_from_pattern(self.scattered_fraction, c, f), 0.0)
+        return np.where(c > 0.0, sigma0_from_pattern(self.scattered_fraction_at(c), c, f), 0.0)
 
     def sigma0_monostatic(self, cos_theta_i: Any) -> np.ndarray:
         """σ⁰ of the direct backscatter [m²/m²]: the given ``sigma0_db`` if any, else the model.
@@ -435,7 +458,7 @@ class DoubleLobe:
         wi = np.asarray(wi, dtype=np.float64)
         wo = np.asarray(wo, dtype=np.float64)
         normal = np.broadcast_to(np.array([0.0, 0.0, 1.0]), wi.shape)
-        return self.scattered_fraction * self.pattern(-wi, wo, normal)
+        return self.scattered_fraction_at(np.abs(wi[..., 2])) * self.pattern(-wi, wo, normal)
 
 
 def monostatic_sigma0_table(materials: Sequence[DoubleLobe | None],
@@ -493,7 +516,38 @@ def bistatic_lobe_tables(materials: Sequence[DoubleLobe], n: int = TABLE_SIZE
     alpha_b, alpha_f = np.ones(rows), np.ones(rows)
     for row, material in enumerate(materials):
         weight_b, weight_f = material.weights(cos_theta)
-        w_b[row] = _FOUR_PI * material.scattered_fraction * weight_b
-        w_f[row] = _FOUR_PI * material.scattered_fraction * weight_f
+        scattered = material.scattered_fraction_at(cos_theta)
+        w_b[row] = _FOUR_PI * scattered * weight_b
+        w_f[row] = _FOUR_PI * scattered * weight_f
         alpha_b[row], alpha_f[row] = material.alpha_b, material.alpha_f
     return w_b, w_f, alpha_b, alpha_f
+
+
+def specular_field_table(materials: Sequence[DoubleLobe | None], n: int = TABLE_SIZE
+                         ) -> np.ndarray:
+    """Stacked tables of the specular field factor ``Γ(θ_i) R``, uniform in θ_i ∈ [0, π/2].
+
+    The ray tracer's reflection step gathers from these with :func:`interp_theta_table`
+    (``offset = row * n``), so a material whose Γ depends on the incidence (a Fresnel
+    reflection, :class:`~mitsar.model.doublelobe.radio.RadioMaterial`) and one whose Γ does not
+    take the same path; a constant row interpolates exactly. ``None`` rows are 0 (the ray
+    stops).
+
+    Parameters
+    ----------
+    materials : sequence of DoubleLobe or None
+        One entry per table.
+    n : int
+        Nodes per table.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``(len(materials), n)`` [-].
+    """
+    cos_theta = theta_table_cosines(n)
+    out = np.zeros((len(materials), n))
+    for row, material in enumerate(materials):
+        if material is not None:
+            out[row] = material.specular_field(cos_theta)
+    return out

@@ -84,6 +84,10 @@ def _make_class() -> type:
             self._where = plugin_where(PLUGIN_NAME, props)
             values = read_properties(props, self._where, PARAMETERS)
             self.material: DoubleLobe = DoubleLobe.from_parameters(values, where=self._where)
+            self._init_components()
+
+        def _init_components(self) -> None:
+            """Flags of the three components and the derived state (after ``self.material``)."""
             glossy = mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.FrontSide \
                 | mi.BSDFFlags.BackSide
             delta = mi.BSDFFlags.DeltaReflection | mi.BSDFFlags.FrontSide | mi.BSDFFlags.BackSide
@@ -105,6 +109,10 @@ def _make_class() -> type:
             for alpha in {m.alpha_b, m.alpha_f}:
                 if not dl._is_closed_form(alpha):
                     self._tables[alpha] = mi.Float(dl.lobe_integral_table(alpha))
+
+        def _gamma2_at(self, cos_theta_i: Any) -> Any:
+            """``Γ²`` at ``cos_theta_i``: a constant here; Fresnel materials override it."""
+            return self._gamma2
 
         def _lobe_integral(self, alpha: float, cos_theta_i: Any) -> Any:
             return dl.lobe_integral(alpha, cos_theta_i, DRJIT_OPS,
@@ -141,7 +149,7 @@ def _make_class() -> type:
             cos_b = dr.dot(wo, wi)
             cos_f = dr.dot(wo, mi.reflect(wi))
             f = dl.double_lobe_pattern(cos_b, cos_f, w_b, w_f, m.alpha_b, m.alpha_f, DRJIT_OPS)
-            value = self._gamma2 * self._s2 * f
+            value = self._gamma2_at(wi.z) * self._s2 * f
             pdf = (p_b * dl.lobe_sampling_pdf(cos_b, m.alpha_b, DRJIT_OPS)
                    + p_f * dl.lobe_sampling_pdf(cos_f, m.alpha_f, DRJIT_OPS))
             valid = (wi.z > 0.0) & (wo.z > 0.0)
@@ -186,7 +194,7 @@ def _make_class() -> type:
 
             wo = dr.select(pick_s, mirror, wo_glossy)
             pdf = dr.select(pick_s, p_s, pdf_glossy)
-            weight = dr.select(pick_s, self._gamma2 * self._r2 * dr.rcp(p_s),
+            weight = dr.select(pick_s, self._gamma2_at(wi.z) * self._r2 * dr.rcp(p_s),
                                value * dr.rcp(pdf_glossy))
             valid = active & (wi.z > 0.0) & (wo.z > 0.0) & (pdf > 0.0)
 
@@ -240,7 +248,7 @@ def _make_class() -> type:
             w_b, w_f, _, _ = self._weights(c)
             f = dl.double_lobe_pattern(1.0, 2.0 * c * c - 1.0, w_b, w_f, m.alpha_b, m.alpha_f,
                                        DRJIT_OPS)
-            sigma0 = dl.sigma0_from_pattern(m.scattered_fraction, c, f)
+            sigma0 = dl.sigma0_from_pattern(self._gamma2_at(c) * self._s2, c, f)
             return dr.select(c > 0.0, sigma0, 0.0)
 
         def sigma0_monostatic(self, cos_theta_i: Any) -> Any:

@@ -15,6 +15,11 @@ box_obstacle       concrete floor and a 1 × 0.5 × 2 m concrete cabinet (PLY me
 Walls are one rectangle each with the normal pointing into the room. Every scene declares
 ``<default>`` parameters (e.g. ``material``) that :func:`mitsar.scene.load_scene` accepts as
 keywords. No scene names an integrator or sensor; the radar integrator is chosen in Python.
+
+:data:`SIONNA_ROOM` (``sionna/sionna_room.xml``, not one of :func:`names`) is an 8 × 5 × 3 m room
+written in Sionna RT's dialect (``itu-radio-material`` concrete walls and ceiling board, a metal
+PLY cabinet, a ``radio-material`` glass window) with a point target: the worked example of
+``docs/scenes.md``.
 """
 
 from __future__ import annotations
@@ -25,6 +30,9 @@ from mitsar.errors import ParameterError
 
 SCENE_DIR = Path(__file__).resolve().parent
 """Directory holding the XML files (``meshes/`` beside them)."""
+
+SIONNA_ROOM = SCENE_DIR / "sionna" / "sionna_room.xml"
+"""The Sionna-dialect example room (parameters ``rcs``, ``scattering``; docs/scenes.md)."""
 
 
 def names() -> list[str]:

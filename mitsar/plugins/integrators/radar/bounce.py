@@ -13,7 +13,9 @@ reflected ray frame and the product of the field factors ``Γ R``. After every r
 2. **ghosts** (optional) — every hit after the first scatters back to the receiver through the
    material's bistatic double-lobe pattern, shadow-tested (:func:`ghost_deposit`);
 3. **reflection** — direction, frame and image are mirrored (paper eq. 5) and the field factor
-   multiplied by ``Γ R`` of the material.
+   multiplied by ``Γ(θ_i) R`` of the material, interpolated at the hit's incidence in the
+   material's θ-table (:func:`mitsar.model.doublelobe.specular_field_table`): constant for a
+   ``doublelobe``, the Fresnel slab reflection for Sionna's radio materials.
 """
 
 from __future__ import annotations
@@ -30,6 +32,7 @@ from mitsar.model.doublelobe import (
     bistatic_lobe_tables,
     double_lobe_pattern,
     interp_theta_table,
+    specular_field_table,
 )
 from mitsar.model.geometry.antenna import field_pattern
 from mitsar.model.multipath import capture_weight
@@ -41,15 +44,17 @@ from mitsar.plugins.ops import DRJIT_OPS
 def shape_table(scene: Any) -> dict:
     """Per-shape values of the multipath kernel, indexed by Dr.Jit registry id of the shape.
 
-    ``rho``: specular field factor ``Γ R`` (0: the ray stops: absorbers, point-target markers,
-    other BSDFs); ``gscale``: 1 where ghosts may scatter (double-lobe materials); ``grow``: row of
-    the ghost tables ``wb``, ``wf``, ``ab``, ``af``
-    (:func:`mitsar.model.doublelobe.bistatic_lobe_tables`).
+    ``rho``: stacked θ-tables of the specular field factor ``Γ(θ_i) R``
+    (:func:`mitsar.model.doublelobe.specular_field_table`), row ``srow`` of the shape (row 0 is
+    zero: the ray stops: absorbers, point-target markers, other BSDFs); ``gscale``: 1 where
+    ghosts may scatter (double-lobe materials); ``grow``: row of the ghost tables ``wb``,
+    ``wf``, ``ab``, ``af`` (:func:`mitsar.model.doublelobe.bistatic_lobe_tables`).
     """
     shapes = list(scene.shapes())
     ids = [int(dr.reinterpret_array(mi.UInt32, mi.ShapePtr(shape))[0]) for shape in shapes]
     size = max(ids + [0]) + 1
-    rho = np.zeros(size)
+    srow = np.zeros(size, dtype=np.uint32)
+    specular: list[Any] = [None]
     gscale = np.zeros(size)
     grow = np.zeros(size, dtype=np.uint32)
     rows: list[Any] = []
@@ -59,7 +64,10 @@ def shape_table(scene: Any) -> dict:
             if getattr(bsdf, "MITSAR_KIND", None) == "doublelobe" else None
         if material is None:
             continue
-        rho[ident] = math.sqrt(material.specular_fraction)
+        if material.specular_fraction > 0.0:
+            if material not in specular:
+                specular.append(material)
+            srow[ident] = specular.index(material)
         if material.scattered_fraction > 0.0:
             if material not in rows:
                 rows.append(material)
@@ -67,7 +75,9 @@ def shape_table(scene: Any) -> dict:
             grow[ident] = rows.index(material)
     wb, wf, ab, af = bistatic_lobe_tables(rows, TABLE_SIZE)
     f32 = mi.Float
-    out = {"rho": f32(rho), "gscale": f32(gscale), "grow": mi.UInt32(grow),
+    rho = specular_field_table(specular, TABLE_SIZE)
+    out = {"rho": f32(rho.ravel()), "srow": mi.UInt32(srow), "gscale": f32(gscale),
+           "grow": mi.UInt32(grow),
            "wb": f32(wb.ravel()), "wf": f32(wf.ravel()), "ab": f32(ab), "af": f32(af)}
     dr.make_opaque(*out.values())
     return out
@@ -247,7 +257,10 @@ def launch(scene: Any, table: dict, rays: dict, sw: dict, k: Constants, ray_ids:
             dr.eval(counts)
             break
         # 3. Specular reflection (paper eq. 5): direction, frame, image (float64), field factor.
-        rho = dr.gather(f32, table["rho"], sid)
+        # The table lookup gathers without a mask: keep the index finite on every lane.
+        cos_i = dr.select(hit, dr.minimum(dr.abs(dr.dot(d, n)), 1.0), 1.0)
+        row = f32(dr.gather(u32, table["srow"], sid) * TABLE_SIZE)
+        rho = interp_theta_table(table["rho"], TABLE_SIZE, cos_i, DRJIT_OPS, row)
         nx, ny, nz = f64(n.x), f64(n.y), f64(n.z)
         off = ((img[0] - f64(si.p.x)) * nx + (img[1] - f64(si.p.y)) * ny
                + (img[2] - f64(si.p.z)) * nz)
