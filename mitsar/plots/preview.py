@@ -9,6 +9,7 @@ first, middle and last sweep projected into it; right, the same from above.
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 import matplotlib.pyplot as plt
@@ -22,7 +23,7 @@ from mitsar.model.radar import Radar
 from mitsar.plots import products  # noqa: F401 - selects the Agg backend first
 from mitsar.plots.footprint import scene_surfaces_points
 from mitsar.scene.footprint import beam_footprint
-from mitsar.scene.render import Camera, project, render_view, shape_kinds
+from mitsar.scene.render import Camera, project, render_view, shape_kinds, unobstructed
 
 __all__ = ["KIND_COLOURS", "default_camera", "plot_preview"]
 
@@ -66,7 +67,10 @@ def plot_preview(scene: Any, radar: Radar, look: Look, positions: NDArray, attit
     chosen = sorted({0, len(positions) // 2, len(positions) - 1})
     frames = antenna_frame(look, *attitude[chosen].T)
     hits, _ = beam_footprint(scene, positions[chosen], frames, radar, count=(15, 15))
-    camera = camera or default_camera(positions, hits)
+    if camera is None:
+        camera = default_camera(positions, hits)
+        camera = dataclasses.replace(camera, origin=unobstructed(scene, camera.target,
+                                                                 camera.origin))
     view = render_view(scene, camera)
     kinds = shape_kinds(scene)
     colours = np.array([KIND_COLOURS[k] for k in kinds] + [(1.0, 1.0, 1.0)])

@@ -19,7 +19,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from mitsar.errors import ParameterError
 
-__all__ = ["Camera", "View", "project", "render_view", "shape_kinds", "stand_in_scene"]
+__all__ = ["Camera", "View", "project", "render_view", "shape_kinds", "stand_in_scene",
+           "unobstructed"]
 
 
 @dataclass(frozen=True)
@@ -172,3 +173,25 @@ def stand_in_scene(planes: list[dict] = (), points: ArrayLike = (), radius: floa
         content[f"target{i}"] = {"type": "sphere", "center": point.tolist(),
                                  "radius": float(radius)}
     return mi.load_dict(content)
+
+
+def unobstructed(scene: Any, target: ArrayLike, origin: ArrayLike, keep: float = 0.9
+                 ) -> tuple[float, float, float]:
+    """``origin`` moved toward ``target`` until nothing of the scene stands between them (a
+    camera inside a closed room instead of behind its wall): ``keep`` of the free distance."""
+    import mitsuba as mi  # lazy: the caller loaded the scene, so a variant is set
+
+    target, origin = np.asarray(target, float), np.asarray(origin, float)
+    offset = origin - target
+    distance = float(np.linalg.norm(offset))
+    if not distance > 0:
+        return tuple(origin)
+    direction = offset / distance
+    ray = mi.Ray3f(mi.Point3f(*(float(v) for v in target)),
+                   mi.Vector3f(*(float(v) for v in direction)))
+    hit = scene.ray_intersect(ray)
+    if bool(np.array(hit.is_valid()).ravel()[0]):
+        free = float(np.array(hit.t).ravel()[0])
+        if free < distance:
+            return tuple(target + keep * free * direction)
+    return tuple(origin)
