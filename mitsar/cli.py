@@ -50,6 +50,7 @@ from mitsar.experiment.runs import run_focus, run_metrics, run_simulation
 from mitsar.export import write_cphd, write_sicd
 from mitsar.focus.compression import range_compress
 from mitsar.io import ProductFileError, check_writable, load, save, to_jsonable, write_json
+from mitsar.plots.footprint import scene_range_marks
 from mitsar.plots.products import (
     background_samples,
     plot_background_histograms,
@@ -63,6 +64,7 @@ from mitsar.plots.products import (
 from mitsar.report.html import RUN_RECORD, build_report
 from mitsar.report.preview import preview
 from mitsar.report.run import run_experiment
+from mitsar.scene import load_scene
 from mitsar.version import __version__
 
 __all__ = ["build_parser", "main"]
@@ -214,10 +216,19 @@ def cmd_metrics(args: argparse.Namespace) -> int:
     return 0
 
 
+def _scene_marks(path: str) -> dict[str, float] | None:
+    """NR / CS / FR of an image of a scene experiment from the beam's hits in its scene."""
+    product = load(path)
+    config = json.loads(product.attrs.get("experiment", "{}") or "{}")
+    if product.attrs.get("product") != "image" or not config.get("scene"):
+        return None
+    return scene_range_marks(product, None, load_scene(config["scene"])) or None
+
+
 def cmd_plot(args: argparse.Namespace) -> int:
     """``mitsar plot``: product file -> figure."""
     plot_file(args.file, args.output, overwrite=args.overwrite,
-              dynamic_range_db=args.dynamic_range)
+              dynamic_range_db=args.dynamic_range, range_marks=_scene_marks(args.file))
     _log(args, f"wrote {args.output}")
     return 0
 

@@ -67,3 +67,6 @@ def test_footprint_figure_and_image_marks(tmp_path):
                          azimuth_resolution=experiment.focus.azimuth_resolution)
     marks = scene_range_marks(image, raw, scene)
     assert set(marks) == {"NR", "CS", "FR"} and marks["NR"] < marks["CS"] < marks["FR"]
+    # The image records the mid-aperture antenna: `mitsar plot` draws the same marks from it.
+    assert scene_range_marks(image, None, scene) == pytest.approx(marks)
+    assert marks["FR"] < 2.2  # the wall cuts the beam (2.14 m) before the floor would

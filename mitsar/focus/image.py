@@ -32,6 +32,16 @@ def make_image_product(raw: xr.Dataset, image: np.ndarray, layout: dict, process
         range_axis=list(map(float, layout["range_axis"])),
         azimuth_axis=list(map(float, layout["azimuth_axis"])),
         raw_seed=raw.attrs.get("seed", -1), raw_config=raw.attrs.get("config", "{}"))
+    # Mid-aperture antenna state of the track that flew (true when known): what the beam's
+    # footprint and its near / centre / far range on the scene are drawn from.
+    truth = "true_" if "true_platform_position" in raw.variables else ""
+    if f"{truth}platform_position" in raw.variables and raw.sizes.get("sweep", 0):
+        middle = raw.sizes["sweep"] // 2
+        product.attrs["mid_platform_position"] = [
+            float(v) for v in raw[f"{truth}platform_position"].values[middle]]
+        if f"{truth}attitude" in raw.variables:
+            product.attrs["mid_platform_attitude"] = [
+                float(v) for v in raw[f"{truth}attitude"].values[middle]]
     for key, value in {**layout["attrs"], **processing}.items():
         product.attrs[key] = json.dumps(value) if isinstance(value, dict) else value
     product["coverage"] = (dims, np.ones(image.shape) if coverage is None else coverage, {

@@ -106,21 +106,28 @@ def scene_surfaces_points(scene: Any, spacing: float) -> np.ndarray:
     return sample_surface_points(scene, max(spacing, floor, 1e-3)).positions
 
 
-def scene_range_marks(image: xr.Dataset, raw: xr.Dataset, scene: Any) -> dict[str, float]:
+def scene_range_marks(image: xr.Dataset, raw: xr.Dataset | None, scene: Any
+                      ) -> dict[str, float]:
     """NR / CS / FR of a slant-grid image from the beam's first hits in the scene [m].
 
     Distances from the slant grid's track line (its range coordinate) of where the lower edge,
     the boresight and the upper edge of the elevation beam first meet the scene, at the middle
-    sweep of the true track. Empty for other grids.
+    sweep of the true track (of ``raw``, or as the image recorded it). Empty for other grids.
     """
     if image.attrs.get("grid_kind") != "slant":
         return {}
-    positions, attitude = _track(raw)
-    middle = len(positions) // 2
-    frame = antenna_frame(look_of(raw), *attitude[middle])
+    if raw is not None:
+        positions, attitude = _track(raw)
+        position, angles = positions[len(positions) // 2], attitude[len(positions) // 2]
+    elif "mid_platform_attitude" in image.attrs:
+        position = _vector(image.attrs["mid_platform_position"])
+        angles = _vector(image.attrs["mid_platform_attitude"])
+    else:
+        return {}
+    frame = antenna_frame(look_of(image), *angles)
     origin = _vector(image.attrs["grid_origin"])
     along = _vector(image.attrs["grid_along_track"])
-    return beam_marks(scene, positions[middle], frame, radar_of(raw), origin, along)
+    return beam_marks(scene, position, frame, radar_of(image), origin, along)
 
 
 def _vector(value: Any) -> np.ndarray:

@@ -429,7 +429,8 @@ def save_figure(figure: Figure, path: str | os.PathLike, overwrite: bool = False
 
 
 def plot_file(path: str | os.PathLike, out: str | os.PathLike, overwrite: bool = False,
-              dynamic_range_db: float | None = None) -> Path:
+              dynamic_range_db: float | None = None,
+              range_marks: Mapping[str, float] | None = None) -> Path:
     """Plot a product file with its natural figure and save it.
 
     A raw or range-compressed product gives the range-compressed matrix, an image product the
@@ -445,6 +446,10 @@ def plot_file(path: str | os.PathLike, out: str | os.PathLike, overwrite: bool =
         Replace an existing figure.
     dynamic_range_db : float, optional
         Colour scale depth [dB].
+    range_marks : mapping, optional
+        NR / CS / FR of an image (default: the beam on a horizontal floor,
+        :func:`beam_range_marks`; ``mitsar plot`` passes the scene's own,
+        :func:`mitsar.plots.footprint.scene_range_marks`).
 
     Returns
     -------
@@ -457,7 +462,8 @@ def plot_file(path: str | os.PathLike, out: str | os.PathLike, overwrite: bool =
     if kind == "image":
         figure, ax = plt.subplots(figsize=(7, 6), layout="constrained")
         plot_image(product, ax=ax, dynamic_range_db=dynamic_range_db or 40.0,
-                   marks=target_marks(product), range_marks=beam_range_marks(product))
+                   marks=target_marks(product),
+                   range_marks=beam_range_marks(product) if range_marks is None else range_marks)
     elif "raw" in product or "profile" in product:
         figure, ax = plt.subplots(figsize=(8, 5), layout="constrained")
         plot_range_compressed(product, ax=ax, dynamic_range_db=dynamic_range_db or 50.0)
