@@ -45,6 +45,7 @@ from mitsar.experiment.options import (
     FocusOptions,
 )
 from mitsar.experiment.paper import PAPER_TABLES
+from mitsar.experiment.parsers import MAX_SEED
 from mitsar.experiment.rays import run_rays
 from mitsar.experiment.runs import run_focus, run_metrics, run_simulation
 from mitsar.export import write_cphd, write_sicd
@@ -100,8 +101,9 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     check_writable(args.output, args.overwrite)
     experiment = load_experiment(args.experiment, args.set)
     if args.seed is not None:
-        if args.seed < 0:
-            raise MitsarError(f"--seed: expected an integer >= 0, found {args.seed}")
+        if not 0 <= args.seed <= MAX_SEED:
+            raise MitsarError(f"--seed: expected an integer in [0, {MAX_SEED}] (products "
+                              f"record it as 64 bits), found {args.seed}")
         experiment.simulation = dataclasses.replace(experiment.simulation, seed=args.seed)
         experiment.config.setdefault("simulation", {})["seed"] = args.seed
     start = time.perf_counter()
@@ -331,6 +333,9 @@ def demo_summary(experiment: Any, results: dict[str, Any], out: Path) -> str:
 def cmd_montecarlo(args: argparse.Namespace) -> int:
     """``mitsar montecarlo``: metric statistics over background realisations (Tables 4-5)."""
     out = Path(args.output)
+    if out.exists() and not out.is_dir():
+        raise ProductFileError(f"{out}: exists and is not a folder (-o names the Monte Carlo "
+                               "folder; choose another name)")
     _log(args, f"Monte Carlo: {args.realisations} realisations x {', '.join(args.algorithms)}")
     experiment = load_experiment(args.experiment, args.set)
     summary = montecarlo.run(experiment, args.realisations, args.algorithms, out_dir=out,

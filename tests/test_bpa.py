@@ -140,3 +140,25 @@ def test_foreign_inputs_get_mitsars_errors(raw):
     with pytest.raises(mitsar.ParameterError, match="targets"):
         mitsar.simulate_point_targets(RADAR, mitsar.Trajectory.linear(START, [0.5, 0, 0], 0.1),
                                       LOOK, mitsar.PointTarget(TARGET))
+
+
+def test_more_fuzz_findings_are_refused_by_name(raw, tmp_path):
+    """NaN or 2-element targets, a zero grid axis, a seed that no product can record, and a
+    Monte Carlo folder that is a file (issue 15)."""
+    from mitsar.cli import main
+    from mitsar.experiment.examples import example_path
+
+    grid = SlantGrid(along_track=[0.1, 0.3, 0.02], slant_range=[7.8, 8.2, 0.02])
+    image = mitsar.focus(raw, grid=grid, azimuth_resolution=0.1)
+    for target in ((np.nan, np.nan, np.nan), (15.0, 8.0)):
+        with pytest.raises(mitsar.ParameterError, match="target"):
+            mitsar.measure_impulse_response(image, target)
+    with pytest.raises(mitsar.ParameterError, match="axis_u"):
+        mitsar.focus(raw, grid=PlaneGrid(origin=TARGET, axis_u=[0, 0, 0], axis_v=[0, 1, 0],
+                                         u=[-0.1, 0.1, 0.05], v=[-0.1, 0.1, 0.05]))
+    experiment = str(example_path("paper_point_target"))
+    assert main(["simulate", experiment, "-o", str(tmp_path / "r.nc"), "-q",
+                 "--seed", str(2**64)]) == 2
+    blocker = tmp_path / "mc"
+    blocker.write_text("")
+    assert main(["montecarlo", experiment, "-n", "1", "-o", str(blocker), "-q"]) == 2

@@ -125,7 +125,7 @@ _ERROR_VECTORS = (("position_offset", "m"), ("position_random_walk", "m/sqrt(s)"
 def parse_navigation_errors(t: Table) -> NavigationErrors:
     """``[trajectory.errors]``: the fields of :class:`NavigationErrors`, vibrations as
     ``[[trajectory.errors.vibration]]`` tables (amplitude [m], frequency [Hz], phase [rad])."""
-    values: dict[str, Any] = {"seed": t.integer("seed", 0, ge=0)}
+    values: dict[str, Any] = {"seed": _seed(t)}
     for name, unit in _ERROR_VECTORS:
         vec = t.vector(name, 3, default=None, unit=unit)
         if vec is not None:
@@ -145,6 +145,17 @@ def parse_navigation_errors(t: Table) -> NavigationErrors:
     t.finish()
     with prefixed(t):
         return NavigationErrors(vibration=tuple(vibrations), **values)
+
+
+MAX_SEED = 2**63 - 1
+"""Largest seed: products record it as a 64-bit integer."""
+
+
+def _seed(t: Table) -> int:
+    seed = t.integer("seed", 0, ge=0)
+    if seed > MAX_SEED:
+        raise t.error("seed", f"an integer in [0, {MAX_SEED}] (recorded as 64 bits)", seed)
+    return seed
 
 
 def parse_navigation(t: Table) -> Trajectory:
@@ -242,7 +253,7 @@ def parse_simulation(t: Table | None) -> SimulationOptions:
     orders = t.numbers("orders", 1, None)
     if orders is not None and any(o != int(o) or o < 0 for o in orders):
         raise t.error("orders", "integers >= 0 (0: direct backscatter)", orders)
-    options = SimulationOptions(seed=t.integer("seed", 0, ge=0), rvp=t.boolean("rvp", True),
+    options = SimulationOptions(seed=_seed(t), rvp=t.boolean("rvp", True),
                                 normalized=t.boolean("normalized", False),
                                 noise=t.boolean("noise", False),
                                 scatterer_density=t.number("scatterer_density", None,

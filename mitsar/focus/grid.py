@@ -38,6 +38,7 @@ import numpy as np
 import xarray as xr
 from numpy.typing import ArrayLike, NDArray
 
+from mitsar import checks
 from mitsar.errors import ParameterError
 from mitsar.model.radar import Radar
 
@@ -54,9 +55,13 @@ def axis_values(spec: ArrayLike, name: str) -> NDArray[np.float64]:
                          "or increasing coordinates", spec)
 
 
-def _unit(vector: ArrayLike) -> NDArray[np.float64]:
-    vector = np.asarray(vector, dtype=float)
-    return vector / np.linalg.norm(vector)
+def _unit(vector: ArrayLike, name: str = "axis") -> NDArray[np.float64]:
+    vector = checks.vector("grid", name, vector, 3, "a non-zero direction: 3 finite numbers")
+    norm = float(np.linalg.norm(vector))
+    if not norm > 0:
+        raise ParameterError("grid", name, "a non-zero direction: 3 finite numbers",
+                             vector.tolist())
+    return vector / norm
 
 
 def track_frame(raw: xr.Dataset) -> tuple[NDArray, NDArray, NDArray]:
@@ -223,7 +228,7 @@ class PlaneGrid:
 
     def resolve(self, raw: xr.Dataset, radar: Radar, azimuth_resolution: float) -> dict:
         origin = np.asarray(self.origin, dtype=float)
-        axis_u, axis_v = _unit(self.axis_u), _unit(self.axis_v)
+        axis_u, axis_v = _unit(self.axis_u, "axis_u"), _unit(self.axis_v, "axis_v")
         if abs(axis_u @ axis_v) > 1e-6:
             raise ParameterError("PlaneGrid", "axis_u/axis_v", "orthogonal directions",
                                  (list(self.axis_u), list(self.axis_v)))

@@ -24,6 +24,7 @@ import xarray as xr
 from numpy.typing import ArrayLike, NDArray
 from scipy import ndimage
 
+from mitsar import checks
 from mitsar.errors import ParameterError
 from mitsar.focus.grid import equivalent_position
 from mitsar.quality.cuts import (
@@ -511,7 +512,9 @@ def measure_impulse_response(
         search_m = float(search_radius_m)
     # On a slant grid a world point images where its (along-track, slant-range) coordinates
     # put it, which need not be on the grid's half-plane (mitsar.focus.grid.equivalent_position).
-    target = equivalent_position(image, np.asarray(target, dtype=float).reshape(3))
+    target = equivalent_position(image, checks.vector(
+        "measure_impulse_response", "target", target, 3, "the target's world position: "
+        "3 finite numbers [m]"))
     target_index = _locate(geometry, target)
     pixel = _peak_pixel(geometry, target_index, search_m)
     messages: list[str] = []
