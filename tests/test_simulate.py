@@ -244,3 +244,11 @@ def test_impossible_set_ups_are_refused_before_compute():
     assert mitsar.Radar(prf=np.int64(250)).prf == 250.0
     with pytest.raises(mitsar.ParameterError, match="'prf'"):
         mitsar.Radar(prf=True)
+
+
+def test_echoes_that_all_miss_the_beam_are_an_error_not_zeros():
+    """A target behind the antenna: before, raw data of exact zeros and exit 0 (issue 15)."""
+    track = mitsar.Trajectory.linear([14.8, 1.4, 4.5], [0.5, 0, 0], 0.2)
+    with pytest.raises(mitsar.ParameterError, match="beam"):
+        mitsar.simulate_point_targets(mitsar.Radar(), track, mitsar.Look(55.7),
+                                      [mitsar.PointTarget([15.0, -5.0, 0.0])])

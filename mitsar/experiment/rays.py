@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from mitsar import checks
 from mitsar.errors import ParameterError
 from mitsar.experiment.loading import load_experiment
 from mitsar.experiment.options import Experiment
@@ -54,6 +55,9 @@ def run_rays(experiment_path: str | Path | Experiment, out: str | Path,
         The summary (also written to ``summary.json``): NR/CS/FR, echo peaks per order, the
         ratio of the reflections' peak to the backscatter peak, captures.
     """
+    if path_rays is not None:
+        checks.integer("mitsar rays", "rays", path_rays, 1)
+    checks.integer("mitsar rays", "sweep", sweep, 0)
     exp = (experiment_path if isinstance(experiment_path, Experiment)
            else load_experiment(experiment_path))
     if exp.scene is None:

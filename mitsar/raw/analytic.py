@@ -186,6 +186,11 @@ def simulate_point_targets(radar: Radar, trajectory: Trajectory, look: Look,
     _check_beat_frequencies(radar, geometry, positions, velocities, len(targets))
     amplitude = _echo_amplitudes(radar, look, geometry, positions, velocities, reflectivity,
                                  normalized=normalized, pattern=pattern)
+    if not np.any(amplitude):
+        raise ParameterError(
+            "simulate_point_targets", "targets", "echoes inside the antenna beam in some sweep "
+            "(every target and background scatterer has a zero two-way pattern or RCS: check "
+            "the look angles and the positions, or pattern=False)", "raw data of exact zeros")
     sum_echoes = _sum_echoes_drjit if backend == "drjit" else _sum_echoes_numpy
     samples = sum_echoes(radar, trajectory, geometry, positions, velocities, amplitude, rvp=rvp,
                          progress=progress, chunk_elements=chunk_elements)
