@@ -191,6 +191,18 @@ def _kernel_inputs(pixels: NDArray, sweeps: int, velocities: NDArray, window: ND
     return sweep_range, speed, direction, coefficients
 
 
+def _kernel_constants(opaque: Any, frequency: NDArray, radar: Radar, motion_correction: bool,
+                      half_width: float, bins: int, coefficients: NDArray) -> dict:
+    """The opaque scalars both kernels read (``opaque`` makes them in the kernel's precision)."""
+    return {"frequency_step": opaque(frequency[1] - frequency[0]),
+            "chirp_rate": opaque(radar.chirp_rate),
+            "carrier": opaque(radar.carrier_frequency),
+            "motion": opaque(1.0 if motion_correction else 0.0),
+            "half_width": opaque(half_width),
+            "bins": dr.opaque(UInt32, bins),
+            "coefficients": [float(c) for c in coefficients]}
+
+
 def _backproject_double(profile: NDArray, frequency: NDArray, radar: Radar, pixels: NDArray,
                         positions: NDArray, velocities: NDArray, centroid_sine: NDArray,
                         half_width: float, window: NDArray, motion_correction: bool,
@@ -208,16 +220,9 @@ def _backproject_double(profile: NDArray, frequency: NDArray, radar: Radar, pixe
     sweep_arrays = [Float64(np.ascontiguousarray(a)) for a in (
         positions[:, 0], positions[:, 1], positions[:, 2],
         direction[:, 0], direction[:, 1], direction[:, 2], speed, centroid_sine)]
-    constants = {
-        "first_frequency": opaque(frequency[0]),
-        "frequency_step": opaque(frequency[1] - frequency[0]),
-        "chirp_rate": opaque(radar.chirp_rate),
-        "carrier": opaque(radar.carrier_frequency),
-        "motion": opaque(1.0 if motion_correction else 0.0),
-        "half_width": opaque(half_width),
-        "bins": dr.opaque(UInt32, bins),
-        "coefficients": [float(c) for c in coefficients],
-    }
+    constants = {"first_frequency": opaque(frequency[0]),
+                 **_kernel_constants(opaque, frequency, radar, motion_correction, half_width,
+                                     bins, coefficients)}
     # Profiles are read at random: float32 halves the memory traffic (1e-7 relative error).
     real = Float32(np.ascontiguousarray(profile.real, dtype=np.float32).ravel())
     imag = Float32(np.ascontiguousarray(profile.imag, dtype=np.float32).ravel())
@@ -279,15 +284,8 @@ def backproject_drjit(profile: NDArray, frequency: NDArray, radar: Radar, pixels
     table_rows = f32(np.column_stack([tables[name] for name in _TABLE_COLUMNS]).ravel())
     # Profiles are read at random: float32 halves the memory traffic (1e-7 relative error).
     profile_pairs = f32(np.stack([profile.real, profile.imag], axis=-1).ravel())
-    constants = {
-        "frequency_step": opaque(frequency[1] - frequency[0]),
-        "chirp_rate": opaque(radar.chirp_rate),
-        "carrier": opaque(radar.carrier_frequency),
-        "motion": opaque(1.0 if motion_correction else 0.0),
-        "half_width": opaque(half_width),
-        "bins": dr.opaque(UInt32, bins),
-        "coefficients": [float(c) for c in coefficients],
-    }
+    constants = _kernel_constants(opaque, frequency, radar, motion_correction, half_width, bins,
+                                  coefficients)
     lanes = [f32(tables["offset"][:, i]) for i in range(3)]
     result = _bpa_loop(*lanes, jit_array(UInt32, tables["entry"], np.uint32),
                        jit_array(UInt32, first[order], np.uint32),
