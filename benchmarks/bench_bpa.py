@@ -7,10 +7,10 @@ Prints pixel-pulses per second for both and their ratio. Not a test: run it with
 from __future__ import annotations
 
 import argparse
-import math
 import time
 
 import numpy as np
+from paper_scene import paper_target_raw
 
 import mitsar
 from mitsar.focus.backprojection import backproject_drjit, backproject_numpy
@@ -25,12 +25,7 @@ def main() -> None:
     args = parser.parse_args()
 
     radar = mitsar.Radar()
-    duration = args.sweeps / radar.prf
-    trajectory = mitsar.Trajectory.linear([15.0 - 0.25 * duration, 1.4, 4.5], [0.5, 0, 0],
-                                          duration)
-    look = mitsar.Look(math.degrees(math.atan2(6.6, 4.5)))
-    raw = mitsar.simulate_point_targets(radar, trajectory, look,
-                                        [mitsar.PointTarget([15.0, 8.0, 0.0])], normalized=True)
+    raw = paper_target_raw(args.sweeps, radar)
     frequency, profile = range_spectrum(raw["raw"].values, radar, upsample=16)
     side = np.linspace(-1.0, 1.0, args.pixels)
     grid_x, grid_y = np.meshgrid(15.0 + side, 8.0 + side, indexing="ij")

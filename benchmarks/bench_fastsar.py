@@ -27,6 +27,7 @@ import math
 import time
 
 import numpy as np
+from paper_scene import paper_target_raw
 
 import mitsar
 from mitsar.focus.backprojection import backproject_drjit, backproject_numpy
@@ -58,12 +59,7 @@ def main() -> None:
     args = parser.parse_args()
 
     radar = mitsar.Radar()
-    duration = args.sweeps / radar.prf
-    trajectory = mitsar.Trajectory.linear([15.0 - 0.25 * duration, 1.4, 4.5], [0.5, 0, 0],
-                                          duration)
-    look = mitsar.Look(math.degrees(math.atan2(6.6, 4.5)))
-    raw = mitsar.simulate_point_targets(radar, trajectory, look,
-                                        [mitsar.PointTarget(TARGET)], normalized=True)
+    raw = paper_target_raw(args.sweeps, radar)
     side = np.linspace(-1.0, 1.0, args.pixels)
     grid_x, grid_y = np.meshgrid(15.0 + side, 8.0 + side, indexing="ij")
     pixels = np.stack([grid_x, grid_y, np.zeros_like(grid_x)], -1).reshape(-1, 3)

@@ -16,6 +16,7 @@ import math
 import time
 
 import numpy as np
+from paper_scene import paper_target_raw
 
 import mitsar
 from mitsar.focus.grid import PlaneGrid
@@ -36,12 +37,7 @@ def main() -> None:
     args = parser.parse_args()
 
     radar = mitsar.Radar()
-    duration = args.sweeps / radar.prf
-    trajectory = mitsar.Trajectory.linear([15.0 - 0.25 * duration, 1.4, 4.5], [0.5, 0, 0],
-                                          duration)
-    look = mitsar.Look(math.degrees(math.atan2(6.6, 4.5)))
-    raw = mitsar.simulate_point_targets(radar, trajectory, look, [mitsar.PointTarget(TARGET)],
-                                        normalized=True)
+    raw = paper_target_raw(args.sweeps, radar)
     half = args.extent / 2
     step = args.extent / args.pixels
     axis = [-half, half - step / 2, step]

@@ -58,11 +58,17 @@ def fresnel_coefficients(cos_theta_i: Any, eta: complex) -> tuple[np.ndarray, np
     r_te, r_tm : numpy.ndarray of complex
         Field reflection coefficients [-]; both are -1 at grazing incidence.
     """
-    c = np.clip(np.asarray(cos_theta_i, dtype=np.float64), 0.0, 1.0)
-    w = _branch_sqrt(complex(eta) - (1.0 - c * c) + 0j)
+    c, w = _normal_components(cos_theta_i, eta)
     r_te = (c - w) / (c + w)
     r_tm = (eta * c - w) / (eta * c + w)
     return r_te, r_tm
+
+
+def _normal_components(cos_theta_i: Any, eta: complex) -> tuple[np.ndarray, np.ndarray]:
+    """``cos θ_i`` clipped to [0, 1] and ``sqrt(eta - sin² θ_i)`` (the normal wavenumber in the
+    medium over k_0, on the decaying branch) [-]."""
+    c = np.clip(np.asarray(cos_theta_i, dtype=np.float64), 0.0, 1.0)
+    return c, _branch_sqrt(complex(eta) - (1.0 - c * c) + 0j)
 
 
 def slab_reflection_coefficients(cos_theta_i: Any, eta: complex, thickness: float,
@@ -88,9 +94,8 @@ def slab_reflection_coefficients(cos_theta_i: Any, eta: complex, thickness: floa
     r_te, r_tm = fresnel_coefficients(cos_theta_i, eta)
     if math.isinf(thickness):
         return r_te, r_tm
-    c = np.clip(np.asarray(cos_theta_i, dtype=np.float64), 0.0, 1.0)
-    q = (2.0 * math.pi * frequency * thickness / SPEED_OF_LIGHT) \
-        * _branch_sqrt(complex(eta) - (1.0 - c * c) + 0j)
+    _, w = _normal_components(cos_theta_i, eta)
+    q = (2.0 * math.pi * frequency * thickness / SPEED_OF_LIGHT) * w
     with np.errstate(over="ignore", under="ignore"):
         phase = np.exp(-2j * q)   # |phase| = exp(2 Im q) <= 1
     return tuple(r * (1.0 - phase) / (1.0 - r * r * phase)  # type: ignore[return-value]
