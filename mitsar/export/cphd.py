@@ -11,31 +11,44 @@ delay), ``TxVel = RcvVel``, ``SRPPos`` the scene reference point, ``SC0 = f_c - 
 window ``[0, 2 R_max / c]`` relative to the SRP's delay, ``aFDOP = -2 (dR_srp/dt) / c``,
 ``aFRR1 = aFRR2 = 0`` (allowed: "may be set equal to zero"), ``TDTropoSRP = 0`` (indoors).
 Positions go to ECF through :class:`mitsar.export.frame.LabOrigin`, recorded in
-``CollectionID/Parameter`` so :func:`read_cphd` can return to the lab frame.
+``CollectionID/Parameter`` so :func:`read_cphd` can return to the lab frame. Two added PVPs
+(``AddedPVP``) carry the boresight (ECF) and attitude, and ``CollectionID/Parameter`` the
+export's steps, the radar and the product's attributes, so that the export can be undone.
 
-:func:`read_cphd` reads a CPHD (ours or any monostatic FX-domain CPHD with one channel and
-fixed ``SC0``/``SCSS``) into a *referenced* raw product (:func:`mitsar.raw.recorded.
-raw_from_arrays`: reference range ``(|TxPos - SRP| + |RcvPos - SRP|) / 2``), which
-:func:`mitsar.focus` back-projects (:mod:`mitsar.focus.referenced`).
+:func:`read_cphd` reads a CPHD written here back into the dechirped raw product it was made
+from (every step undone, :func:`mitsar.export.phase_history.dechirped_samples`; docs/products.md,
+the round trip), which focuses like the original with the same focuser; and any monostatic
+FX-domain CPHD with one channel and fixed ``SC0``/``SCSS`` (or ours, ``form="referenced"``)
+into a *referenced* raw product (:func:`mitsar.raw.recorded.raw_from_arrays`: reference range
+``(|TxPos - SRP| + |RcvPos - SRP|) / 2``), which :func:`mitsar.focus` back-projects
+(:mod:`mitsar.focus.referenced`).
 """
 
 from __future__ import annotations
 
 import datetime as _dt
+import json
 import os
 from pathlib import Path
 
 import numpy as np
 import xarray as xr
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from mitsar.errors import MitsarError, ParameterError
 from mitsar.export.frame import DEFAULT_ORIGIN, LabOrigin
 from mitsar.export.optional import require_sarkit
-from mitsar.export.phase_history import PHASE_SIGN, fx_phase_history, scene_reference_point
+from mitsar.export.phase_history import (
+    PHASE_SIGN,
+    dechirped_samples,
+    fx_phase_history,
+    scene_reference_point,
+)
 from mitsar.io import ProductFileError, atomic_writer
-from mitsar.model.radar import SPEED_OF_LIGHT
-from mitsar.raw.product import radar_of
+from mitsar.model.geometry.attitude import Look
+from mitsar.model.radar import SPEED_OF_LIGHT, Radar
+from mitsar.model.signal import fast_time
+from mitsar.raw.product import make_raw_product, radar_of
 from mitsar.raw.recorded import raw_from_arrays
 from mitsar.version import __version__
 
@@ -50,6 +63,18 @@ _PVP_LAYOUT = (("TxTime", 1), ("TxPos", 3), ("TxVel", 3), ("RcvTime", 1), ("RcvP
                ("SC0", 1), ("SCSS", 1))
 """The required PVPs of CPHD 1.0.1 (Table 4-1), in file order, with their sizes in words."""
 
+_ADDED_PVPS = (("mitsar_boresight", ("X", "Y", "Z")), ("mitsar_attitude", ("H", "P", "R")))
+"""Added PVPs (CPHD §4, ``AddedPVP``) after the required ones, 3 words each: the antenna
+boresight (unit vector, ECF) and attitude (heading, pitch, roll [rad], lab frame) at mid-sweep,
+which the dechirped raw product holds and the required PVPs do not."""
+
+_EXPORT_RECORD = ("mitsar.raw_attrs", "mitsar.motion", "mitsar.rvp_removed",
+                  "mitsar.motion_azimuth_centre_hz", "mitsar.slow_time_start")
+"""CollectionID parameters :func:`read_cphd` needs to undo :func:`write_cphd`'s steps."""
+
+FORMS = ("auto", "dechirped", "referenced")
+"""What :func:`read_cphd` returns (its docstring)."""
+
 COLLECTION_START = _dt.datetime(2000, 1, 1, tzinfo=_dt.UTC)
 """Collection start written when the product has no absolute time (simulations)."""
 
@@ -61,6 +86,17 @@ def _check_raw(raw: object, where: str) -> xr.Dataset:
         raise ParameterError(where, "raw_product", "a mitsar raw product (product='raw')",
                              found)
     return raw
+
+
+def _plain_attrs(attrs: dict) -> dict:
+    """The attributes of a product that JSON can hold (NumPy scalars and arrays as Python)."""
+    out = {}
+    for key, value in attrs.items():
+        if isinstance(value, np.ndarray | np.generic):
+            value = value.tolist()
+        if isinstance(value, str | int | float | bool | list):
+            out[key] = value
+    return out
 
 
 def write_cphd(raw_product: xr.Dataset, path: str | os.PathLike, *,
@@ -123,7 +159,7 @@ def write_cphd(raw_product: xr.Dataset, path: str | os.PathLike, *,
     toa2 = toa1 + 2.0 * radar.max_range / SPEED_OF_LIGHT
     words = 0
     layout = {}
-    for name, size in _PVP_LAYOUT:
+    for name, size in (*_PVP_LAYOUT, *((name, 3) for name, _ in _ADDED_PVPS)):
         layout[name] = (words, size)
         words += size
     values = {"TxTime": time, "TxPos": ecf_position, "TxVel": ecf_velocity,
@@ -133,7 +169,10 @@ def write_cphd(raw_product: xr.Dataset, path: str | os.PathLike, *,
               "aFRR2": np.zeros(vectors), "FX1": np.full(vectors, fx1),
               "FX2": np.full(vectors, fx2), "TOA1": toa1, "TOA2": toa2,
               "TDTropoSRP": np.zeros(vectors), "SC0": np.full(vectors, fx1),
-              "SCSS": np.full(vectors, history.frequency_step)}
+              "SCSS": np.full(vectors, history.frequency_step),
+              "mitsar_boresight": origin.vectors_to_ecf(np.asarray(raw["boresight"].values,
+                                                                   dtype=float)),
+              "mitsar_attitude": np.asarray(raw["attitude"].values, dtype=float)}
 
     ns = CPHD_NAMESPACE
     root = etree.Element(f"{{{ns}}}CPHD", nsmap={None: ns})
@@ -182,8 +221,13 @@ def write_cphd(raw_product: xr.Dataset, path: str | os.PathLike, *,
             "DwellTimes": {"CODId": "1", "DwellId": "1"}}]}
     pvp = xml["PVP"]
     for name, (offset, size) in layout.items():
+        if name.startswith("mitsar_"):
+            continue
         pvp[name] = {"Offset": offset, "Size": size, "dtype": np.dtype(
             [("X", "f8"), ("Y", "f8"), ("Z", "f8")] if size == 3 else "f8")}
+    pvp["AddedPVP"] = [{"Name": name, "Offset": layout[name][0], "Size": 3,
+                        "dtype": np.dtype([(part, "f8") for part in parts])}
+                       for name, parts in _ADDED_PVPS]
     # Reference times (CPHD §6.2): tref = TxTime + (RcvTime - TxTime) / 2 (monostatic).
     tref = values["TxTime"] + (values["RcvTime"] - values["TxTime"]) / 2
     xml["Dwell"] = {
@@ -194,7 +238,10 @@ def write_cphd(raw_product: xr.Dataset, path: str | os.PathLike, *,
     parameters = {**origin.to_parameters(),
                   "mitsar.motion": history.motion, "mitsar.rvp_removed":
                   str(int(history.rvp_removed)), "mitsar.srp_lab": repr(history.srp.tolist()),
-                  "mitsar.radar": repr(radar.to_attrs())}
+                  "mitsar.radar": repr(radar.to_attrs()),
+                  "mitsar.motion_azimuth_centre_hz": repr(float(history.azimuth_centre)),
+                  "mitsar.slow_time_start": repr(float(raw["slow_time"].values[0])),
+                  "mitsar.raw_attrs": json.dumps(_plain_attrs(raw.attrs))}
     collection_node = root.find(f"{{{ns}}}CollectionID")
     for key, value in parameters.items():
         node = etree.SubElement(collection_node, f"{{{ns}}}Parameter", name=key)
@@ -203,7 +250,12 @@ def write_cphd(raw_product: xr.Dataset, path: str | os.PathLike, *,
     dtype = skcphd.get_pvp_dtype(etree.ElementTree(root))
     pvp_array = np.zeros(vectors, dtype=dtype)
     for name, value in values.items():
-        pvp_array[name] = value
+        parts = pvp_array.dtype[name].names  # (H, P, R): structured; (X, Y, Z): (3,) floats
+        if parts:
+            for i, part in enumerate(parts):
+                pvp_array[name][part] = value[:, i]
+        else:
+            pvp_array[name] = value
     xml["ReferenceGeometry"] = skcphd.compute_reference_geometry(
         etree.ElementTree(root), pvp_array)
     tree = etree.ElementTree(root)
@@ -219,8 +271,8 @@ def write_cphd(raw_product: xr.Dataset, path: str | os.PathLike, *,
 
 
 def read_cphd(path: str | os.PathLike, *, origin: LabOrigin | None = None,
-              channel: str | None = None) -> xr.Dataset:
-    """Read an FX-domain CPHD into a referenced mitsar raw product (module docstring).
+              channel: str | None = None, form: str = "auto") -> xr.Dataset:
+    """Read an FX-domain CPHD into a mitsar raw product (module docstring).
 
     Parameters
     ----------
@@ -231,18 +283,31 @@ def read_cphd(path: str | os.PathLike, *, origin: LabOrigin | None = None,
         else a local east-north-up frame at the scene's IARP.
     channel : str, optional
         Channel identifier (default the reference channel).
+    form : {"auto", "dechirped", "referenced"}
+        ``"dechirped"``: the dechirped raw product the file was written from, every export
+        step undone (:func:`mitsar.export.phase_history.dechirped_samples`; needs a file
+        written by :func:`write_cphd`, which records the steps, the radar, the product's
+        attributes and the boresight and attitude as added PVPs); it focuses like the original
+        with every algorithm. ``"referenced"``: the stop-and-go phase history as it is, a
+        referenced product (any FX CPHD; back-projection only). ``"auto"``: dechirped when the
+        file records mitsar's export, else referenced.
 
     Returns
     -------
     xarray.Dataset
-        Raw product with ``reference_range`` and ``frequency`` (focus with BPA).
+        Raw product; referenced ones carry ``reference_range`` and ``frequency``.
 
     Raises
     ------
     ProductFileError
         For a missing or unreadable file, or a CPHD this reader does not handle (not FX,
         varying SC0/SCSS).
+    ParameterError
+        For an unknown ``form``, or ``"dechirped"`` on a file that does not record mitsar's
+        export.
     """
+    if form not in FORMS:
+        raise ParameterError("read_cphd", "form", f"one of {FORMS}", form)
     skcphd = require_sarkit("sarkit.cphd")
     etree = require_sarkit("lxml.etree")
     path = Path(path)
@@ -281,15 +346,54 @@ def read_cphd(path: str | os.PathLike, *, origin: LabOrigin | None = None,
     lab_srp = origin.from_ecf(srp)
     frequencies = sc0[0] + scss[0] * np.arange(signal.shape[1])
     sign = int(float(root.findtext("{*}Global/{*}SGN")))
+    provenance = {"source": str(path), "source_format": "CPHD " + root.nsmap[None]
+                  .rsplit("/", 1)[-1], "cphd_channel": ref, "lab_origin": origin.to_parameters()}
+    missing = [key for key in _EXPORT_RECORD if key not in parameters] + [
+        name for name, _ in _ADDED_PVPS if name not in (pvps.dtype.names or ())]
+    if form == "dechirped" and missing:
+        raise ParameterError("read_cphd", "form", "'auto' or 'referenced' for a CPHD that "
+                             "does not record mitsar's export (not written by "
+                             "mitsar.write_cphd)", f"'dechirped' (missing {missing})")
+    if form == "dechirped" or (form == "auto" and not missing):
+        geometry = {"slow_time": np.asarray(pvps["TxTime"], float) - float(pvps["TxTime"][0])
+                    + float(parameters["mitsar.slow_time_start"]),
+                    "position": position, "velocity": velocity,
+                    "boresight": origin.vectors_from_ecf(np.asarray(pvps["mitsar_boresight"],
+                                                                    float)),
+                    "attitude": np.column_stack([np.asarray(pvps["mitsar_attitude"][part], float)
+                                                 for part in ("H", "P", "R")])}
+        return _dechirped_product(path, signal, frequencies, sign, parameters, geometry,
+                                  lab_srp[0], provenance)  # SRPFixed: one SRP
     try:
         product = raw_from_arrays(
             signal, frequencies, position, sweep_times=np.asarray(pvps["TxTime"], float),
             phase_sign=sign, reference_range=reference, velocities=velocity,
-            boresight=lab_srp - position,
-            attrs={"source": str(path), "source_format": "CPHD " + root.nsmap[None]
-                   .rsplit("/", 1)[-1], "cphd_channel": ref,
-                   "lab_origin": origin.to_parameters()})
+            boresight=lab_srp - position, attrs=provenance)
     except ParameterError as error:
         raise MitsarError(f"{path}: cannot read as a mitsar raw product: {error}") from error
     return product
 
+
+def _dechirped_product(path: Path, signal: NDArray, frequencies: NDArray, sign: int,
+                       parameters: dict, geometry: dict, srp: NDArray,
+                       provenance: dict) -> xr.Dataset:
+    """The dechirped raw product a mitsar CPHD was written from (``read_cphd(form=...)``)."""
+    attrs = json.loads(parameters["mitsar.raw_attrs"])
+    radar = Radar.from_attrs(attrs)
+    rf = radar.carrier_frequency + radar.chirp_rate * fast_time(radar)
+    if len(rf) != len(frequencies) or np.abs(rf - frequencies).max() > 1e-6 * (rf[1] - rf[0]):
+        raise ProductFileError(f"{path}: the recorded radar samples {len(rf)} frequencies from "
+                               f"{rf[0]:.9g} Hz, the vectors {len(frequencies)} from "
+                               f"{frequencies[0]:.9g} Hz; read it with form='referenced'")
+    samples = dechirped_samples(
+        signal, radar, geometry["position"], geometry["velocity"], srp,
+        parameters["mitsar.motion"], float(parameters["mitsar.motion_azimuth_centre_hz"]),
+        parameters["mitsar.rvp_removed"] == "1", sign)
+    look = Look(float(attrs.get("look_off_nadir_deg", 0.0)),
+                float(attrs.get("look_squint_deg", 0.0)))
+    product = make_raw_product(samples, radar, look, geometry,
+                               rvp=bool(int(attrs.get("rvp", 1))))
+    product.attrs.update(attrs)
+    for key, value in provenance.items():
+        product.attrs[key] = json.dumps(value) if isinstance(value, dict | list) else value
+    return product
