@@ -34,6 +34,7 @@ Everything here is NumPy on the mitsar lab frame; :mod:`mitsar.export.cphd` writ
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -258,6 +259,13 @@ def restore_motion(samples: NDArray, motion: str, t: NDArray, radar: Radar, cent
         updated = np.sum(np.abs(gradient) ** 2, axis=0)
         direction = gradient + (updated / np.maximum(gamma, np.finfo(float).tiny)) * direction
         gamma = updated
+    if not np.all(gamma <= stop):
+        worst = float(np.sqrt(np.max(gamma / np.maximum(stop / tolerance**2,
+                                                        np.finfo(float).tiny))))
+        warnings.warn(f"read_cphd: undoing the 'exact' intra-sweep motion removal did not converge "
+                      f"in {iterations} iterations (residual {worst:.2g} of its start, aim "
+                      f"{tolerance:.0e}); the dechirped samples are approximate. Read with "
+                      f"form='referenced' to skip the inversion.", RuntimeWarning, stacklevel=3)
     return x
 
 
