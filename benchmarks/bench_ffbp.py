@@ -5,7 +5,9 @@ it, the whole beam processed (rect window) unless ``--window``/``--resolution`` 
 otherwise; both images come from :func:`mitsar.focus`
 (``algorithm="bpa"`` with the Dr.Jit kernel, and ``algorithm="ffbp"``), timed end to end
 (range compression included) after a warm-up run that compiles the kernels. The error is
-``20 log10(||ffbp - bpa|| / ||bpa||)``. Not a test: run it with
+``20 log10(||ffbp - bpa|| / ||bpa||)``. Speed-ups are given per wall second and per CPU-second
+(all threads): on a shared machine the wall time depends on the other jobs. Not a test: run it
+with
 ``python benchmarks/bench_ffbp.py [--sweeps N] [--pixels N] [--extent M]``.
 """
 
@@ -13,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import resource
 import time
 
 import numpy as np
@@ -51,28 +54,34 @@ def main() -> None:
     mitsar.focus(raw, grid=small)  # compile the kernels once (cached afterwards)
     mitsar.focus(raw, algorithm="ffbp", grid=small)
 
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), _cpu_seconds()
     settings = {"window": args.window, "azimuth_resolution": args.resolution}
     reference = mitsar.focus(raw, grid=grid, **settings)["image"].values
-    bpa_time = time.perf_counter() - start
+    bpa_time, bpa_cpu = time.perf_counter() - start, _cpu_seconds() - cpu
     print(f"FFBP vs BPA: {args.pixels}x{args.pixels} pixels ({args.extent:g} m square, ground) "
           f"x {args.sweeps} sweeps = {work:.3g} pixel-sweeps, "
           f"{'whole beam' if args.resolution is None else f'{args.resolution:g} m'}, "
           f"{args.window} window")
     print(f"  {'method':40s} {'time [s]':>9s} {'M px-sweeps/s':>14s} {'speed-up':>9s} "
-          f"{'error [dB]':>11s}")
+          f"{'cpu [s]':>8s} {'speed-up (cpu)':>15s} {'error [dB]':>11s}")
     print(f"  {'bpa (exact, Dr.Jit)':40s} {bpa_time:9.2f} {work / bpa_time / 1e6:14.1f} "
-          f"{1.0:9.1f} {'-':>11s}")
+          f"{1.0:9.1f} {bpa_cpu:8.2f} {1.0:15.1f} {'-':>11s}")
     for options in option_sets:
-        start = time.perf_counter()
+        start, cpu = time.perf_counter(), _cpu_seconds()
         image = mitsar.focus(raw, algorithm="ffbp", grid=grid, algorithm_options=options,
                              **settings)
-        elapsed = time.perf_counter() - start
+        elapsed, cpu = time.perf_counter() - start, _cpu_seconds() - cpu
         values = image["image"].values
         error = 20 * math.log10(np.linalg.norm(values - reference) / np.linalg.norm(reference))
         label = "ffbp " + (", ".join(f"{k}={v}" for k, v in options.items()) or "defaults")
         print(f"  {label:40s} {elapsed:9.2f} {work / elapsed / 1e6:14.1f} "
-              f"{bpa_time / elapsed:9.1f} {error:11.1f}")
+              f"{bpa_time / elapsed:9.1f} {cpu:8.2f} {bpa_cpu / cpu:15.1f} {error:11.1f}")
+
+
+def _cpu_seconds() -> float:
+    """CPU time of this process, all threads [s]."""
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    return usage.ru_utime + usage.ru_stime
 
 
 def _parse(item: str) -> tuple[str, float | int]:

@@ -6,11 +6,11 @@ straight line (mitsar/focus/mocomp.py) the frequency-domain algorithms must give
 response that back-projection gives on the straight track (what compensation restores), within
 0.02 cells IRW and 0.3 dB PSLR in range and azimuth.
 
-Back-projection on the wandering track itself (pixel band selection, window on each sweep's own
-velocity direction) measures 0.851 cells / -13.79 dB in azimuth here, against 0.884 / -13.30 dB
-on the straight track: its processed aperture follows the wander of the velocity direction
-(docs/focusing.md, motion compensation). That is a difference of definitions, not of focus, so
-the comparison is with the straight-track reference.
+Back-projection on the wandering track itself (pixel band selection, window on each pixel's
+aspect angle) measures 0.873 cells / -13.72 dB in azimuth here (0.851 / -13.79 dB with the
+former window on each sweep's own velocity direction), against 0.884 / -13.30 dB on the
+straight track (docs/focusing.md, motion compensation). That is a difference of processed
+apertures, not of focus, so the comparison is with the straight-track reference.
 """
 
 from __future__ import annotations

@@ -15,6 +15,14 @@ IRW = 0.886 rho; :func:`aperture_half_width`). Two ways to select it (``focus_bp
 :func:`sweep_window` bounds the sweeps a pixel's aperture spans on a straight track (the
 kernel's loop range); :func:`aperture_resolution` is the nominal resolution of a recorded
 aperture seen from a point.
+
+On a curved track the direction sine along each sweep's *own* velocity also turns with the
+heading, so a window on it processes an angular span of the line of sight that follows the
+turn rate, not ``lambda / (2 rho)``. :func:`aspect_frames` gives every pixel one fixed
+direction, the (interpolated) velocity direction at its beam-centre crossing, and the sine of
+its line of sight there: the window on ``l_hat . d_pixel - u_pixel`` then spans exactly the
+line-of-sight (aspect) angle the resolution asks for, on any track (docs/focusing.md, "Curved
+tracks"). On a straight track the frame is the track's and nothing changes.
 """
 
 from __future__ import annotations
@@ -31,6 +39,7 @@ from mitsar.model.radar import SPEED_OF_LIGHT, Radar
 __all__ = [
     "aperture_half_width",
     "aperture_resolution",
+    "aspect_frames",
     "band_coverage",
     "doppler_bandpass",
     "doppler_geometry",
@@ -217,3 +226,90 @@ def aperture_resolution(raw: xr.Dataset, point: ArrayLike) -> float:
     angle = float(np.arccos(np.clip(cosine, -1.0, 1.0)))
     wavelength = SPEED_OF_LIGHT / float(raw.attrs["radar_carrier_frequency"])
     return wavelength / (2 * angle) if angle > 0 else math.inf
+
+
+def aspect_frames(pixels: NDArray, positions: NDArray, velocities: NDArray,
+                  centroid_sine: NDArray, *, samples: int = 256, chunk: int = 32768
+                  ) -> tuple[NDArray, NDArray]:
+    """Per-pixel window frame of the aspect-angle window for curved tracks (module docstring).
+
+    The beam-centre crossing of a pixel is where its direction sine along the sweep's own
+    velocity equals the sweep's Doppler-centroid sine, ``v_hat_k . l_hat_k = u_c,k``. It is
+    found on ``samples`` evenly spaced sweeps (the crossing nearest the track if the pixel is
+    seen more than once, e.g. before and after a U-turn; the closest approach to the beam
+    centre if it never crosses), refined by a secant step between the two sweeps around it,
+    with positions and velocities interpolated linearly there.
+
+    Parameters
+    ----------
+    pixels : ndarray, shape (P, 3)
+        Pixel positions [m].
+    positions, velocities : ndarray, shape (S, 3)
+        Mid-sweep antenna positions [m] and velocities [m/s].
+    centroid_sine : ndarray, shape (S,)
+        Doppler-centroid direction sine of every sweep.
+    samples : int
+        Sweeps sampled in the coarse search.
+    chunk : int
+        Pixels per NumPy block (memory ~ 60 bytes x samples x chunk).
+
+    Returns
+    -------
+    direction : ndarray, shape (P, 3)
+        Unit velocity direction at the crossing.
+    centre_sine : ndarray, shape (P,)
+        ``d_hat . l_hat`` at the crossing (l_hat: antenna to pixel).
+    """
+    sweeps = len(positions)
+    coarse = np.unique(np.linspace(0, sweeps - 1, min(samples, sweeps)).round().astype(int))
+    direction = np.empty_like(pixels, dtype=float)
+    centre = np.empty(len(pixels))
+    for start in range(0, len(pixels), chunk):
+        block = pixels[start:start + chunk]
+        crossing = _crossing(block, positions, velocities, centroid_sine, coarse)
+        # refine between the two whole sweeps around the coarse crossing (secant step)
+        low = np.clip(np.floor(crossing).astype(int), 0, max(sweeps - 2, 0))
+        high = np.minimum(low + 1, sweeps - 1)
+        off_low, off_high = (_centroid_offset(block, positions[k], velocities[k],
+                                              centroid_sine[k]) for k in (low, high))
+        step = off_low - off_high
+        fraction = np.clip(np.where(np.abs(step) > 0, off_low / np.where(step != 0, step, 1),
+                                    crossing - low), 0.0, 1.0)[:, None]
+        position = positions[low] + fraction * (positions[high] - positions[low])
+        velocity = velocities[low] + fraction * (velocities[high] - velocities[low])
+        unit = velocity / np.linalg.norm(velocity, axis=-1, keepdims=True)
+        sight = block - position
+        direction[start:start + chunk] = unit
+        centre[start:start + chunk] = (np.einsum("pi,pi->p", sight, unit)
+                                       / np.linalg.norm(sight, axis=-1))
+    return direction, centre
+
+
+def _centroid_offset(pixels: NDArray, position: NDArray, velocity: NDArray,
+                     centroid_sine: NDArray) -> NDArray:
+    """``v_hat . l_hat - u_c`` of pixel i seen from its own sweep i (rows paired)."""
+    sight = pixels - position
+    unit = velocity / np.linalg.norm(velocity, axis=-1, keepdims=True)
+    return (np.einsum("pi,pi->p", sight, unit) / np.linalg.norm(sight, axis=-1)
+            - centroid_sine)
+
+
+def _crossing(pixels: NDArray, positions: NDArray, velocities: NDArray,
+              centroid_sine: NDArray, coarse: NDArray) -> NDArray:
+    """Fractional sweep index of each pixel's beam-centre crossing on the coarse sweeps."""
+    slant_range, sine, _ = doppler_geometry(pixels, positions[coarse], velocities[coarse])
+    offset = sine - centroid_sine[coarse][:, None]
+    if len(coarse) == 1:
+        return np.zeros(len(pixels))
+    before, after = offset[:-1], offset[1:]
+    crosses = (before * after <= 0) & (before != after)
+    # among crossings, the one nearest the track; otherwise the closest approach in sine
+    score = np.where(crosses, slant_range[:-1], np.inf)
+    pick = score.argmin(axis=0)
+    columns = np.arange(len(pixels))
+    found = np.isfinite(score[pick, columns])
+    a, b = before[pick, columns], after[pick, columns]
+    fraction = np.where(found, a / np.where(a != b, a - b, 1.0), 0.0)
+    index = np.where(found, coarse[pick] + fraction * (coarse[pick + 1] - coarse[pick]),
+                     coarse[np.abs(offset).argmin(axis=0)])
+    return index.astype(float)

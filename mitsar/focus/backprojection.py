@@ -15,10 +15,10 @@ For every pixel x and sweep (or pulse) k with two-way delay ``tau`` (and delay r
 Steps 1-3 are small pure functions of operators (and a ``floor``), called by the NumPy sum
 (:func:`pulse_sum`, behind :func:`backproject_numpy` and :func:`backproject_referenced`) and by
 the Dr.Jit loop (:func:`backproject_drjit`), so the reference and the kernel evaluate the same
-expressions. The kernel is one symbolic loop over sweeps with one lane per pixel (float64
-phases), compiled once and cached: per-acquisition values are opaque. A float32 variant
-(``precision="single"``) keeps the phase with float64 per-block tables (:func:`block_tables`,
-:func:`range_offset`; docs/focusing.md, kernel speed).
+expressions. The kernel is one symbolic loop over sweeps, compiled once and cached
+(per-acquisition values are opaque): each lane takes a few pixels that share their sweep range
+and gathers a sweep's geometry once for all of them; range, profile bin and carrier phase are
+float64, the rest float32 (docs/focusing.md, kernel speed).
 
 Recorded data referenced to a scene point (:mod:`mitsar.raw.recorded`) use the same sum with
 ``tau = 2 (R - R_ref,k) / c``, no delay rate, and a profile that is periodic in beat frequency.
@@ -26,16 +26,16 @@ Recorded data referenced to a scene point (:mod:`mitsar.raw.recorded`) use the s
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from typing import Any
 
 import drjit as dr
 import numpy as np
-from drjit.llvm import Float32, Float64, UInt32
+from drjit.llvm import Float32, Float64, Int32, UInt32, UInt64
 from numpy.typing import NDArray
 
 from mitsar.backend import require_llvm
-from mitsar.errors import ParameterError
 from mitsar.focus.aperture import doppler_geometry
 from mitsar.focus.windows import cosine_series, evaluate_window
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
@@ -43,7 +43,6 @@ from mitsar.model.signal import beat_frequency
 
 __all__ = [
     "backproject_drjit",
-    "block_tables",
     "backproject_numpy",
     "backproject_referenced",
     "carrier_turns",
@@ -52,7 +51,6 @@ __all__ = [
     "jit_array",
     "profile_position",
     "pulse_sum",
-    "range_offset",
 ]
 
 
@@ -140,7 +138,8 @@ def pulse_sum(profile: NDArray, frequency: NDArray, delay: NDArray, beat: NDArra
 def backproject_numpy(profile: NDArray, frequency: NDArray, radar: Radar, pixels: NDArray,
                       positions: NDArray, velocities: NDArray, centroid_sine: NDArray,
                       half_width: float, window: NDArray,
-                      motion_correction: bool = True) -> tuple[NDArray, NDArray]:
+                      motion_correction: bool = True,
+                      aspect: tuple[NDArray, NDArray] | None = None) -> tuple[NDArray, NDArray]:
     """Reference back-projection in NumPy (same sum as the Dr.Jit kernel, all in memory).
 
     Parameters
@@ -159,6 +158,9 @@ def backproject_numpy(profile: NDArray, frequency: NDArray, radar: Radar, pixels
         Cosine-series coefficients of the azimuth window.
     motion_correction : bool
         Shift the range lookup by the Doppler term ``f_c dtau/dt``.
+    aspect : (ndarray (P, 3), ndarray (P,)), optional
+        Per-pixel window frame (:func:`mitsar.focus.aperture.aspect_frames`): the window is
+        then evaluated at ``d_pixel . l_hat - u_pixel`` instead of ``v_hat . l_hat - u_c``.
 
     Returns
     -------
@@ -172,6 +174,9 @@ def backproject_numpy(profile: NDArray, frequency: NDArray, radar: Radar, pixels
     beat = beat_frequency(delay, delay_rate if motion_correction else 0.0, radar.chirp_rate,
                           radar.carrier_frequency)
     offset = sine - centroid_sine[:, None]
+    if aspect is not None:
+        offset = (np.einsum("spi,pi->sp", pixels[None] - positions[:, None], aspect[0])
+                  / slant_range - aspect[1][None])
     weight = np.where(np.abs(offset) <= half_width,
                       evaluate_window(window, offset / (2 * half_width) + 0.5), 0.0)
     return pulse_sum(profile, frequency, delay, beat, weight, radar.carrier_frequency)
@@ -191,195 +196,112 @@ def _kernel_inputs(pixels: NDArray, sweeps: int, velocities: NDArray, window: ND
     return sweep_range, speed, direction, coefficients
 
 
-def _kernel_constants(opaque: Any, frequency: NDArray, radar: Radar, motion_correction: bool,
-                      half_width: float, bins: int, coefficients: NDArray) -> dict:
-    """The opaque scalars both kernels read (``opaque`` makes them in the kernel's precision)."""
-    return {"frequency_step": opaque(frequency[1] - frequency[0]),
-            "chirp_rate": opaque(radar.chirp_rate),
-            "carrier": opaque(radar.carrier_frequency),
-            "motion": opaque(1.0 if motion_correction else 0.0),
-            "half_width": opaque(half_width),
-            "bins": dr.opaque(UInt32, bins),
-            "coefficients": [float(c) for c in coefficients]}
-
-
-def _backproject_double(profile: NDArray, frequency: NDArray, radar: Radar, pixels: NDArray,
-                        positions: NDArray, velocities: NDArray, centroid_sine: NDArray,
-                        half_width: float, window: NDArray, motion_correction: bool,
-                        sweep_range: tuple[NDArray, NDArray] | None
-                        ) -> tuple[NDArray, NDArray]:
-    """The float64 kernel: geometry and phase in float64, sin/cos of the wrapped phase in
-    float32 (1e-6 of the peak from :func:`backproject_numpy`)."""
-    sweeps, bins = profile.shape
-    sweep_range, speed, direction, coefficients = _kernel_inputs(pixels, sweeps, velocities,
-                                                                 window, sweep_range)
-
-    def opaque(value: float) -> Float64:
-        return dr.opaque(Float64, float(value))
-
-    sweep_arrays = [Float64(np.ascontiguousarray(a)) for a in (
-        positions[:, 0], positions[:, 1], positions[:, 2],
-        direction[:, 0], direction[:, 1], direction[:, 2], speed, centroid_sine)]
-    constants = {"first_frequency": opaque(frequency[0]),
-                 **_kernel_constants(opaque, frequency, radar, motion_correction, half_width,
-                                     bins, coefficients)}
-    # Profiles are read at random: float32 halves the memory traffic (1e-7 relative error).
-    real = Float32(np.ascontiguousarray(profile.real, dtype=np.float32).ravel())
-    imag = Float32(np.ascontiguousarray(profile.imag, dtype=np.float32).ravel())
-    result_real, result_imag, total = _bpa_kernel(
-        Float64(pixels[:, 0]), Float64(pixels[:, 1]), Float64(pixels[:, 2]),
-        sweep_arrays, real, imag, UInt32(sweep_range[0]), UInt32(sweep_range[1]), constants)
-    return np.asarray(result_real) + 1j * np.asarray(result_imag), np.asarray(total)
-
-
-BLOCK = 64
-"""Pixels per block of :func:`block_tables` (neighbours in the caller's order)."""
-
-_TABLE_COLUMNS = ("to_x", "to_y", "to_z", "range", "turns", "bin", "fraction")
-
-
 def backproject_drjit(profile: NDArray, frequency: NDArray, radar: Radar, pixels: NDArray,
                       positions: NDArray, velocities: NDArray, centroid_sine: NDArray,
                       half_width: float, window: NDArray, motion_correction: bool = True,
                       sweep_range: tuple[NDArray, NDArray] | None = None,
-                      precision: str = "double", block: int = BLOCK
+                      aspect: tuple[NDArray, NDArray] | None = None
                       ) -> tuple[NDArray, NDArray]:
     """Back-projection as one Dr.Jit kernel (parameters as :func:`backproject_numpy`).
 
-    ``sweep_range``, optional per-pixel first and end sweep indices, limits each lane's loop
-    to the sweeps that can see the pixel inside the processed window
-    (:func:`mitsar.focus.aperture.sweep_window`); by default every lane visits every sweep.
+    ``sweep_range``, optional per-pixel first and end sweep indices, limits each pixel to the
+    sweeps that can see it inside the processed window
+    (:func:`mitsar.focus.aperture.sweep_window`); by default every pixel takes every sweep.
+    ``aspect``, optional per-pixel window frame (:func:`mitsar.focus.aperture.aspect_frames`),
+    windows on the pixel's aspect angle as in :func:`backproject_numpy`.
 
-    ``precision="double"`` (default) evaluates geometry and phase in float64 (agrees with
-    :func:`backproject_numpy` to 1e-6 of the peak). ``precision="single"`` runs in float32
-    with float64 accuracy where it matters (:func:`block_tables`): pixels are grouped in
-    blocks of ``block`` neighbours; per block and sweep the range of the block centre, its
-    carrier phase (wrapped in float64) and its profile bin are tabulated, and each pixel adds
-    its offset from the centre in the cancellation-free form of :func:`range_offset` (about
-    -90 dB from the float64 reference for blocks a few decimetres across; docs/focusing.md,
-    kernel speed).
+    Range, profile bin and carrier phase are evaluated in float64, the rest (direction sine,
+    Doppler shift of the lookup, interpolation, sin/cos, de-rotation, window, sums) in
+    float32; each lane takes :data:`LANE_PIXELS` pixels of similar sweep range and gathers a
+    sweep's geometry once for all of them (docs/focusing.md, kernel speed). Agrees with
+    :func:`backproject_numpy` to 1e-6 of the peak (about -120 dB over an image).
     """
     require_llvm()
-    if precision not in ("double", "single"):
-        raise ParameterError("backproject_drjit", "precision", "'double' or 'single'",
-                             precision)
-    if precision == "double":
-        return _backproject_double(profile, frequency, radar, pixels, positions, velocities,
-                                   centroid_sine, half_width, window, motion_correction,
-                                   sweep_range)
+    if len(pixels) == 0:
+        return np.zeros(0, dtype=complex), np.zeros(0)
     sweeps, bins = profile.shape
     sweep_range, speed, direction, coefficients = _kernel_inputs(pixels, sweeps, velocities,
                                                                  window, sweep_range)
     first, end = (np.asarray(r, dtype=np.int64) for r in sweep_range)
-    order, tables = block_tables(pixels, positions, first, end, radar, frequency, block)
+    groups = _lane_groups(first, LANE_PIXELS)
+    lanes = len(groups)
+    step = frequency[1] - frequency[0]
+    two_over_c = 2.0 / SPEED_OF_LIGHT
+    constants = {
+        # index = (K 2R/c - f_0) / df + f_c dtau/dt / df (beat_frequency, profile_position)
+        "range_scale": dr.opaque(Float64, radar.chirp_rate * two_over_c / step),
+        "index_offset": dr.opaque(Float64, -frequency[0] / step),
+        "doppler_scale": dr.opaque(Float32, -radar.carrier_frequency * two_over_c / step
+                                   if motion_correction else 0.0),
+        "carrier_scale": dr.opaque(Float64, radar.carrier_frequency * two_over_c),
+        "bins": dr.opaque(UInt32, bins),
+        "half_width": dr.opaque(Float32, half_width),
+        "coefficients": [float(c) for c in coefficients]}
+    sweep_arrays = ([jit_array(Float64, positions[:, i], np.float64) for i in range(3)]
+                    + [jit_array(Float32, a, np.float32) for a in (
+                        direction[:, 0], direction[:, 1], direction[:, 2], speed,
+                        centroid_sine)])
+    # Profiles are read at random: (real, imag) float32 pairs, one 64-bit word per bin.
+    pairs = jit_array(UInt64, np.ascontiguousarray(profile, dtype=np.complex64)
+                      .view(np.uint64).ravel(), np.uint64)
+    index = groups.ravel()
+    count = len(pixels)
+    natural = bool(np.array_equal(index[:count], np.arange(count)))
 
-    def opaque(value: float) -> Float32:
-        return dr.opaque(Float32, float(value))
+    def lane_order(array: NDArray, pad: Any) -> NDArray:
+        """``array`` in the lanes' order, padding (index -1) filled with ``pad``."""
+        rest = array.shape[1:]
+        if natural:  # pixels already in order: pad the end, no gather
+            padding = np.broadcast_to(pad, (len(index) - count, *rest))
+            return np.concatenate([array, padding]).reshape(lanes, LANE_PIXELS, *rest)
+        return np.concatenate([array, np.broadcast_to(pad, (1, *rest))])[groups]
 
-    def f32(array: NDArray) -> Float32:
-        return jit_array(Float32, array, np.float32)
-
-    # One interleaved buffer per kind of row (fewer, cache-friendly gather sources).
-    sweep_rows = f32(np.column_stack([direction, speed, centroid_sine]).ravel())
-    table_rows = f32(np.column_stack([tables[name] for name in _TABLE_COLUMNS]).ravel())
-    # Profiles are read at random: float32 halves the memory traffic (1e-7 relative error).
-    profile_pairs = f32(np.stack([profile.real, profile.imag], axis=-1).ravel())
-    constants = _kernel_constants(opaque, frequency, radar, motion_correction, half_width, bins,
-                                  coefficients)
-    lanes = [f32(tables["offset"][:, i]) for i in range(3)]
-    result = _bpa_loop(*lanes, jit_array(UInt32, tables["entry"], np.uint32),
-                       jit_array(UInt32, first[order], np.uint32),
-                       jit_array(UInt32, end[order], np.uint32), table_rows, sweep_rows,
-                       profile_pairs, constants)
+    padded_first = lane_order(first, 0)  # padding gets an empty range
+    padded_end = lane_order(end, 0)
+    grouped = lane_order(pixels, pixels[:1])  # (L, LANE_PIXELS, 3)
+    frames = (None if aspect is None else  # (L, LANE_PIXELS, 4): direction, centre sine
+              lane_order(np.column_stack([aspect[0], aspect[1]]), np.zeros(4)))
+    lane_pixels = [tuple(jit_array(Float64, grouped[:, g, i], np.float64) for i in range(3))
+                   + (jit_array(UInt32, padded_first[:, g], np.uint32),
+                      jit_array(UInt32, padded_end[:, g], np.uint32))
+                   + (() if frames is None else
+                      tuple(jit_array(Float32, frames[:, g, i], np.float32) for i in range(4)))
+                   for g in range(LANE_PIXELS)]
+    lane_first = jit_array(UInt32, padded_first.min(axis=1, initial=sweeps,
+                                                    where=padded_end > padded_first), np.uint32)
+    lane_end = jit_array(UInt32, padded_end.max(axis=1), np.uint32)
+    result = _bpa_loop(lane_pixels, lane_first, lane_end, sweep_arrays, pairs, constants,
+                       lanes)
     dr.eval(*result)
-    weighted_sum = np.empty(len(pixels), dtype=complex)
-    total = np.empty(len(pixels))
-    weighted_sum[order] = (np.asarray(result[0], dtype=float)
-                           + 1j * np.asarray(result[1], dtype=float))
-    total[order] = np.asarray(result[2], dtype=float)
+    # (3 G, L) accumulators -> per part, values in the order of groups.ravel().
+    parts = np.stack([np.asarray(r, dtype=float) for r in result]).reshape(
+        LANE_PIXELS, 3, lanes).transpose(1, 2, 0).reshape(3, -1)
+    if natural:
+        return parts[0, :count] + 1j * parts[1, :count], parts[2, :count]
+    keep = index >= 0
+    weighted_sum = np.zeros(count, dtype=complex)
+    total = np.zeros(count)
+    weighted_sum[index[keep]] = parts[0, keep] + 1j * parts[1, keep]
+    total[index[keep]] = parts[2, keep]
     return weighted_sum, total
 
 
-def range_offset(offset: Any, to_pixel: Any, centre_range: Any, sqrt: Callable[[Any], Any]
-                 ) -> Any:
-    """``|w + d| - |w|`` for the centre-to-pixel offset d and the sweep-to-centre vector w.
+LANE_PIXELS = 4
+"""Pixels per lane of the float64 kernel: the per-sweep geometry is gathered once for all."""
 
-    Written ``(2 d.w + |d|^2) / (|w + d| + |w|)`` so that it keeps its relative accuracy in
-    float32 however large ``|w|`` is (no cancellation): the range from sweep to pixel is
-    ``|w| + range_offset`` with ``|w|`` (and its carrier phase) from a float64 table.
 
-    Parameters
-    ----------
-    offset, to_pixel : sequence of three array_like
-        d = pixel - block centre and w = block centre - antenna [m].
-    centre_range : array_like
-        ``|w|`` [m].
-    sqrt : callable
+def _lane_groups(first: NDArray, group: int) -> NDArray:
+    """Pixel indices of every lane, shape (L, group), -1 for padding.
+
+    Pixels are taken in order of their first sweep (stable: the caller's order among equal
+    ones), so that the pixels of a lane share their sweep range.
     """
-    dw = offset[0] * to_pixel[0] + offset[1] * to_pixel[1] + offset[2] * to_pixel[2]
-    dd = offset[0] * offset[0] + offset[1] * offset[1] + offset[2] * offset[2]
-    numerator = 2 * dw + dd
-    return numerator / (sqrt(centre_range * centre_range + numerator) + centre_range)
-
-
-def block_tables(pixels: NDArray, positions: NDArray, first: NDArray, end: NDArray,
-                 radar: Radar, frequency: NDArray, block: int = BLOCK) -> tuple[NDArray, dict]:
-    """Per-block, per-sweep float64 geometry for the float32 kernel.
-
-    Pixels are taken in blocks of ``block`` (in their given order, or in a spatial order when
-    the given one puts pixels more than a metre from their block's centre). For every block b
-    and sweep k in the union of its pixels' sweep ranges: ``w = c_b - p_k``, ``|w|``, the carrier
-    turns ``f_c 2 |w| / c`` wrapped to [0, 1) in float64 (:func:`carrier_turns`), and the
-    position of the centre's beat frequency ``K 2 |w| / c`` on the profile axis ``frequency``
-    split into its bin and the fraction (:func:`profile_position`), so that float32 lanes
-    only add small offsets to exact values.
-
-    Returns
-    -------
-    order : ndarray, shape (P,)
-        Pixel order of the lanes.
-    tables : dict
-        ``offset`` (P, 3): pixel minus block centre [m] (lane order); ``entry`` (P,): index of
-        the lane's block's row for sweep 0, so that sweep k is at ``entry + k``; ``to_x``,
-        ``to_y``, ``to_z``, ``range`` [m], ``turns``, ``bin`` and ``fraction`` per
-        (block, sweep) row.
-    """
-    count = len(pixels)
-    order = np.arange(count)
-    for attempt in range(2):
-        blocks = np.arange(count) // block
-        ordered = pixels[order]
-        sums = np.zeros((blocks[-1] + 1 if count else 0, 3))
-        np.add.at(sums, blocks, ordered)
-        sizes = np.bincount(blocks)
-        centre = sums / sizes[:, None]
-        offset = ordered - centre[blocks]
-        if attempt or count == 0 or np.abs(offset).max() <= 1.0:
-            break
-        # Neighbours first, among pixels that share a sweep range (keeps the tables short).
-        cell = np.floor((pixels - pixels.min(axis=0)) / 0.25).astype(np.int64)
-        order = np.lexsort((cell[:, 2], cell[:, 1], cell[:, 0], end, first))
-    lane_first, lane_end = first[order], end[order]
-    low = np.minimum.reduceat(lane_first, np.arange(0, count, block)) if count else first
-    high = np.maximum.reduceat(lane_end, np.arange(0, count, block)) if count else end
-    high = np.maximum(high, low)
-    lengths = high - low
-    starts = np.concatenate([[0], np.cumsum(lengths)[:-1]])
-    total = int(lengths.sum())
-    row_block = np.repeat(np.arange(len(lengths)), lengths)
-    sweep = low[row_block] + (np.arange(total) - starts[row_block])
-    to_pixel = centre[row_block] - positions[sweep]
-    centre_range = np.linalg.norm(to_pixel, axis=-1)
-    delay = 2.0 * centre_range / SPEED_OF_LIGHT
-    turns = carrier_turns(delay, radar.carrier_frequency, np.floor)
-    beat = beat_frequency(delay, 0.0, radar.chirp_rate, radar.carrier_frequency)
-    lower, fraction = profile_position(beat, frequency[0], frequency[1] - frequency[0],
-                                       np.floor)
-    entry = (starts - low)[blocks]  # may be negative; entry + k >= 0 for k in range
-    tables = {"offset": offset, "entry": entry, "to_x": to_pixel[:, 0],
-              "to_y": to_pixel[:, 1], "to_z": to_pixel[:, 2], "range": centre_range,
-              "turns": turns, "bin": lower, "fraction": fraction}
-    return order, tables
+    sorted_already = len(first) < 2 or bool(np.all(first[1:] >= first[:-1]))
+    order = np.arange(len(first)) if sorted_already else np.argsort(first, kind="stable")
+    lanes = -(-len(order) // group)
+    padded = np.full(lanes * group, -1, dtype=np.int64)
+    padded[: len(order)] = order
+    return padded.reshape(lanes, group)
 
 
 def jit_array(kind: type, array: NDArray, dtype: type) -> Any:
@@ -394,127 +316,74 @@ def jit_array(kind: type, array: NDArray, dtype: type) -> Any:
     return value
 
 
-def _bpa_kernel(x: Float64, y: Float64, z: Float64, sweep_arrays: list, real: Float64,
-                imag: Float64, first: UInt32, end: UInt32, constants: dict) -> tuple:
-    """Launch the back-projection loop and evaluate its three accumulators."""
-    result = _bpa_loop64(x, y, z, *sweep_arrays, real, imag, first, end, constants["chirp_rate"],
-                       constants["carrier"], constants["motion"], constants["first_frequency"],
-                       constants["frequency_step"], constants["bins"], constants["half_width"],
-                       constants["coefficients"])
-    dr.eval(*result)
-    return result
-
-
-def _cos64(angle: Float32) -> Float64:
-    return Float64(dr.cos(angle))
-
-
-@dr.syntax
-def _bpa_loop64(x, y, z, px, py, pz, dx_v, dy_v, dz_v, speed_all, centroid_all, real, imag,  # noqa: ANN001, ANN202, PLR0913
-              first, end, chirp_rate, carrier, motion, first_frequency, frequency_step, bins,
-              half_width, coefficients):
-    """One lane per pixel, a symbolic loop over its sweeps (steps 1-4 of the module)."""
-    two_over_c = 2.0 / SPEED_OF_LIGHT
-    k = UInt32(first)
-    acc_real = dr.zeros(Float64, dr.width(x))
-    acc_imag = dr.zeros(Float64, dr.width(x))
-    total = dr.zeros(Float64, dr.width(x))
-    while k < end:
-        ox = x - dr.gather(Float64, px, k)
-        oy = y - dr.gather(Float64, py, k)
-        oz = z - dr.gather(Float64, pz, k)
-        slant_range = dr.sqrt(ox * ox + oy * oy + oz * oz)
-        sine = (ox * dr.gather(Float64, dx_v, k) + oy * dr.gather(Float64, dy_v, k)
-                + oz * dr.gather(Float64, dz_v, k)) / slant_range
-        delay = two_over_c * slant_range
-        delay_rate = -two_over_c * dr.gather(Float64, speed_all, k) * sine
-        beat = beat_frequency(delay, motion * delay_rate, chirp_rate, carrier)
-        lower, fraction = profile_position(beat, first_frequency, frequency_step, dr.floor)
-        offset = sine - dr.gather(Float64, centroid_all, k)
-        active = (lower >= 0) & (lower < Float64(bins - 1)) & (dr.abs(offset) <= half_width)
-        flat = k * bins + UInt32(dr.select(active, lower, 0))
-        v_real = interpolate(Float64(dr.gather(Float32, real, flat, active)),
-                             Float64(dr.gather(Float32, real, flat + 1, active)), fraction)
-        v_imag = interpolate(Float64(dr.gather(Float32, imag, flat, active)),
-                             Float64(dr.gather(Float32, imag, flat + 1, active)), fraction)
-        # Phase wrapped to one turn in float64, then evaluated in float32 (error < 1e-6 rad).
-        sin_phase, cos_phase = dr.sincos(Float32(2 * dr.pi * carrier_turns(delay, carrier,
-                                                                           dr.floor)))
-        sin_phase, cos_phase = Float64(sin_phase), Float64(cos_phase)
-        # Azimuth window at xi = offset / (2 half_width) (centre 0), in float32.
-        weight = dr.select(active, Float64(cosine_series(
-            coefficients, Float32(offset / (2 * half_width)), _cos64)), 0.0)
-        part_real, part_imag = derotate(v_real, v_imag, sin_phase, cos_phase)
-        acc_real += weight * part_real
-        acc_imag += weight * part_imag
-        total += weight
-        k += 1
-    return acc_real, acc_imag, total
-
-
 def _cos32(angle: Float32) -> Float32:
     return dr.cos(angle)
 
 
-@dr.syntax
-def _bpa_loop(dx, dy, dz, entry, first, end, table_rows, sweep_rows, profile_pairs,  # noqa: ANN001, ANN202, PLR0913
-              constants):
-    """One lane per pixel, a symbolic loop over its sweeps (steps 1-4 of the module), float32.
+def _pixel_pulse(k: UInt32, pixel: tuple, sweep: tuple, pairs: UInt64, constants: dict
+                 ) -> tuple[Float32, Float32, Float32]:
+    """Weighted, de-rotated profile value of one pixel for sweep k (steps 1-4 of the module).
 
-    Sweep k of the lane's block: ``w``, ``|w|``, the wrapped carrier turns and the profile
-    bin of ``|w|`` from the float64 tables; the pixel's range ``|w| + range_offset``; the
-    carrier phase ``turns(|w|) + f_c 2 range_offset / c`` (a few hundred cycles at most:
-    float32 keeps it to ~1e-4 rad).
+    Range, profile position and carrier turns in float64 (:func:`carrier_turns`,
+    :func:`profile_position`); the direction sine, the Doppler shift of the lookup
+    (:func:`mitsar.model.signal.beat_frequency`, Meta 2007 §II-B), the interpolation, the
+    de-rotation and the window in float32.
     """
-    chirp_rate, carrier, motion = (constants["chirp_rate"], constants["carrier"],
-                                   constants["motion"])
-    frequency_step = constants["frequency_step"]
-    bins, half_width, coefficients = (constants["bins"], constants["half_width"],
-                                      constants["coefficients"])
-    two_over_c = 2.0 / SPEED_OF_LIGHT
-    columns = len(_TABLE_COLUMNS)
-    k = UInt32(first)
-    acc_real = dr.zeros(Float32, dr.width(dx))
-    acc_imag = dr.zeros(Float32, dr.width(dx))
-    total = dr.zeros(Float32, dr.width(dx))
-    while k < end:
-        row = (entry + k) * columns
-        wx = dr.gather(Float32, table_rows, row)
-        wy = dr.gather(Float32, table_rows, row + 1)
-        wz = dr.gather(Float32, table_rows, row + 2)
-        centre_range = dr.gather(Float32, table_rows, row + 3)
-        extra = range_offset((dx, dy, dz), (wx, wy, wz), centre_range, dr.sqrt)
-        slant_range = centre_range + extra
-        sweep = k * 5
-        sine = ((wx + dx) * dr.gather(Float32, sweep_rows, sweep)
-                + (wy + dy) * dr.gather(Float32, sweep_rows, sweep + 1)
-                + (wz + dz) * dr.gather(Float32, sweep_rows, sweep + 2)) / slant_range
-        delay_rate = -two_over_c * dr.gather(Float32, sweep_rows, sweep + 3) * sine
-        # Beat frequency of the offset from the centre, placed after the centre's exact bin.
-        beat = beat_frequency(two_over_c * extra, motion * delay_rate, chirp_rate, carrier)
-        lower, fraction = profile_position(
-            beat, -frequency_step * dr.gather(Float32, table_rows, row + 6), frequency_step,
-            dr.floor)
-        lower = lower + dr.gather(Float32, table_rows, row + 5)
-        offset = sine - dr.gather(Float32, sweep_rows, sweep + 4)
-        active = (lower >= 0) & (lower < Float32(bins - 1)) & (dr.abs(offset) <= half_width)
-        flat = (k * bins + UInt32(dr.select(active, lower, 0))) * 2
-        v_real = interpolate(dr.gather(Float32, profile_pairs, flat, active),
-                             dr.gather(Float32, profile_pairs, flat + 2, active), fraction)
-        v_imag = interpolate(dr.gather(Float32, profile_pairs, flat + 1, active),
-                             dr.gather(Float32, profile_pairs, flat + 3, active), fraction)
-        turns = (dr.gather(Float32, table_rows, row + 4)
-                 + carrier_turns(two_over_c * extra, carrier, dr.floor))
-        sin_phase, cos_phase = dr.sincos(2 * dr.pi * turns)
-        # Azimuth window at xi = offset / (2 half_width) (centre 0).
-        weight = dr.select(active, cosine_series(coefficients, offset / (2 * half_width),
-                                                 _cos32), 0.0)
-        part_real, part_imag = derotate(v_real, v_imag, sin_phase, cos_phase)
-        acc_real += weight * part_real
-        acc_imag += weight * part_imag
-        total += weight
-        k += 1
-    return acc_real, acc_imag, total
+    x, y, z, first, end = pixel[:5]
+    gx, gy, gz, ux, uy, uz, speed, centroid = sweep
+    bins, half_width = constants["bins"], constants["half_width"]
+    ox, oy, oz = x - gx, y - gy, z - gz
+    slant_range = dr.sqrt(ox * ox + oy * oy + oz * oz)
+    inverse_range = dr.rcp(Float32(slant_range))
+    sine = (Float32(ox) * ux + Float32(oy) * uy + Float32(oz) * uz) * inverse_range
+    # Bin of K tau (float64), then the Doppler term f_c dtau/dt (float32, a few bins at most).
+    lower, fraction = profile_position(slant_range * constants["range_scale"],
+                                       -constants["index_offset"], 1.0, dr.floor)
+    shift, fraction = profile_position(Float32(fraction)
+                                       + constants["doppler_scale"] * speed * sine,
+                                       0.0, 1.0, dr.floor)
+    bin_index = Int32(lower) + Int32(shift)
+    offset = sine - centroid
+    if len(pixel) > 5:  # aspect-angle window (curved tracks): the pixel's own frame
+        dx, dy, dz, centre = pixel[5:]
+        offset = (Float32(ox) * dx + Float32(oy) * dy + Float32(oz) * dz) * inverse_range - centre
+    active = ((k >= first) & (k < end) & (bin_index >= 0) & (bin_index < Int32(bins - 1))
+              & (dr.abs(offset) <= half_width))
+    flat = k * bins + UInt32(dr.select(active, bin_index, 0))
+    low = dr.gather(UInt64, pairs, flat, active)
+    high = dr.gather(UInt64, pairs, flat + 1, active)
+    v_real = interpolate(dr.reinterpret_array(Float32, UInt32(low)),
+                         dr.reinterpret_array(Float32, UInt32(high)), fraction)
+    v_imag = interpolate(dr.reinterpret_array(Float32, UInt32(low >> 32)),
+                         dr.reinterpret_array(Float32, UInt32(high >> 32)), fraction)
+    # Carrier phase wrapped to one turn in float64, sin/cos in float32 (error < 1e-6 rad).
+    turns = carrier_turns(slant_range, constants["carrier_scale"], dr.floor)
+    sin_phase, cos_phase = dr.sincos(Float32(2 * math.pi) * Float32(turns))
+    weight = dr.select(active, cosine_series(constants["coefficients"],
+                                             offset / (2 * half_width), _cos32), 0.0)
+    part_real, part_imag = derotate(v_real, v_imag, sin_phase, cos_phase)
+    return weight * part_real, weight * part_imag, weight
+
+
+def _bpa_loop(lane_pixels: list, first: UInt32, end: UInt32, sweep_arrays: list,
+                pairs: UInt64, constants: dict, lanes: int) -> list:
+    """A symbolic loop over sweeps, :data:`LANE_PIXELS` pixels per lane: the sweep's geometry
+    is gathered once per lane and sweep; three float32 accumulators per pixel."""
+
+    def condition(k: UInt32, *_: Float32) -> Any:
+        return k < end
+
+    def body(k: UInt32, *accumulators: Float32) -> tuple:
+        sweep = tuple([dr.gather(Float64, a, k) for a in sweep_arrays[:3]]
+                      + [dr.gather(Float32, a, k) for a in sweep_arrays[3:]])
+        out = []
+        for g, pixel in enumerate(lane_pixels):
+            parts = _pixel_pulse(k, pixel, sweep, pairs, constants)
+            out += [accumulators[3 * g + i] + parts[i] for i in range(3)]
+        return (k + 1, *out)
+
+    state = (UInt32(first), *[dr.zeros(Float32, lanes) for _ in range(3 * len(lane_pixels))])
+    return list(dr.while_loop(state, condition, body)[1:])
 
 
 # --------------------------------------------------------------------------------------------

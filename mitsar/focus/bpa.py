@@ -30,9 +30,7 @@ import xarray as xr
 from numpy.typing import NDArray
 from tqdm.auto import tqdm
 
-from mitsar.focus.aperture import (
-    sweep_window,
-)
+from mitsar.focus.aperture import aspect_frames, sweep_window
 from mitsar.focus.backprojection import backproject_drjit, backproject_numpy
 from mitsar.focus.bp_setup import normalise, prepare
 from mitsar.focus.grid import track_frame
@@ -61,6 +59,11 @@ def crop_to_pixels(frequency: NDArray, profile: NDArray, radar: Radar, pixels: N
     if len(keep) < 2:
         return frequency, profile
     return frequency[keep[0]:keep[-1] + 1], profile[:, keep[0]:keep[-1] + 1]
+
+
+def _rows(pair: tuple[NDArray, NDArray] | None, rows: slice) -> tuple[NDArray, NDArray] | None:
+    """The rows of a per-pixel pair of arrays (or None)."""
+    return None if pair is None else (pair[0][rows], pair[1][rows])
 
 
 def focus_bpa(raw: xr.Dataset, pixels: NDArray, *, half_width: float, window: str,
@@ -105,15 +108,21 @@ def focus_bpa(raw: xr.Dataset, pixels: NDArray, *, half_width: float, window: st
     arguments = (profile, frequency, radar)
     common = (positions, bp.velocities, bp.centroid, bp.kernel_half_width, bp.kernel_window,
               motion_correction)
+    # curved tracks, band narrower than the beam: the window on each pixel's aspect angle
+    # (aperture.aspect_frames); the whole beam keeps every sweep that sees the pixel
+    aspect = None
+    if bp.band_selection == "pixel" and not bp.straight and half_width < bp.beam_half_width:
+        aspect = aspect_frames(pixels, positions, bp.velocities, bp.centroid)
     if backend == "numpy":
-        results = [backproject_numpy(*arguments, pixels[c], *common) for c in chunks]
+        results = [backproject_numpy(*arguments, pixels[c], *common, aspect=_rows(aspect, c))
+                   for c in chunks]
     else:
         ranges = None
         if bp.straight:
             ranges = sweep_window(pixels, origin, direction, bp.mean_speed / radar.prf,
                                   len(positions), bp.mean_centroid, bp.kernel_half_width)
-        results = [backproject_drjit(*arguments, pixels[c], *common, sweep_range=None
-                                     if ranges is None else (ranges[0][c], ranges[1][c]))
+        results = [backproject_drjit(*arguments, pixels[c], *common,
+                                     sweep_range=_rows(ranges, c), aspect=_rows(aspect, c))
                    for c in chunks]
     # 4. normalisation by the full-aperture weight
     sums, totals = zip(*results, strict=True)

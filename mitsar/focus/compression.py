@@ -15,7 +15,9 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 from numpy.typing import NDArray
+from scipy import fft as sp_fft
 
+from mitsar.errors import ParameterError
 from mitsar.focus.windows import window_samples
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
 from mitsar.raw.product import radar_of
@@ -50,14 +52,19 @@ def range_spectrum(samples: NDArray, radar: Radar, *, window: str = "rect",
     count = samples.shape[-1]
     size = count * int(upsample)
     weights = window_samples(window, count)
-    spectrum = np.fft.fft(samples * (weights / weights.sum()), n=size, axis=-1)
+    spectrum = sp_fft.fft(samples * (weights / weights.sum()), n=size, axis=-1, workers=-1)
     frequency = np.fft.fftfreq(size, 1.0 / radar.sampling_frequency)
     phase = np.pi * frequency * radar.sweep_duration
     if remove_rvp and rvp_present:
         phase = phase + np.pi * frequency**2 / radar.chirp_rate
-    spectrum *= np.exp(1j * phase)
-    order = np.argsort(frequency)
-    return frequency[order], spectrum[..., order]
+    factor = np.exp(1j * phase)
+    # Ascending frequencies are a rotation of the FFT's order (negative ones from bin
+    # ceil(N/2) on): reorder and apply the phase in one pass over the spectrum.
+    split = (size + 1) // 2
+    out = np.empty_like(spectrum)
+    np.multiply(spectrum[..., split:], factor[split:], out=out[..., :size - split])
+    np.multiply(spectrum[..., :split], factor[:split], out=out[..., size - split:])
+    return np.concatenate([frequency[split:], frequency[:split]]), out
 
 
 def range_compress(raw: xr.Dataset, window: str = "rect", remove_rvp: bool = True,
@@ -66,6 +73,9 @@ def range_compress(raw: xr.Dataset, window: str = "rect", remove_rvp: bool = Tru
 
     See :func:`range_spectrum` for the parameters.
     """
+    if not isinstance(raw, xr.Dataset) or "raw" not in raw:
+        raise ParameterError("range_compress", "raw", "a raw product (xarray.Dataset with a "
+                             "'raw' variable, e.g. from mitsar.load)", type(raw).__name__)
     radar = radar_of(raw)
     frequency, profile = range_spectrum(
         raw["raw"].values, radar, window=window, remove_rvp=remove_rvp, upsample=upsample,

@@ -29,7 +29,10 @@ Steps of :func:`focus_ffbp`:
    interpolated at ``(|y - c_j|, alpha_j(y))``, re-modulated by ``exp(-j 2 pi f_c 2 rho_j / c)``
    and demodulated by the parent's ``exp(+j 2 pi f_c 2 rho_P / c)``, i.e. rotated by
    ``2 pi (2 f_c / c)(rho_P - rho_j)``, computed as ``(c_j - c_P).(2y - c_P - c_j) /
-   (rho_P + rho_j)`` so that float32 keeps it (a Dr.Jit kernel, one lane per (node, child));
+   (rho_P + rho_j)`` so that float32 keeps it (a Dr.Jit kernel):
+   one lane per node and a symbolic loop over its children; each tap is one 64-bit gather of
+   a (real, imag) float32 pair; the sums of the weights only where the normalisation reads
+   them ("pixel" band selection);
 5. final stage: the remaining sub-apertures are merged onto the output pixels the same way,
    re-modulated in float64 by the range from a local origin, and normalised as BPA
    (:func:`mitsar.focus.aperture.full_aperture_weight`, :func:`normalise_image`), so a unit
@@ -47,7 +50,9 @@ Options (``algorithm_options``), defaults and measured error (``docs/focusing.md
 first-stage sub-aperture), ``final_subapertures`` 8 (merging stops when at most this many are
 left), ``angle_oversample`` 4.0 (``q_a``), ``first_angle_oversample`` 4.0 (extra angular
 sampling of the first stage, where nodes are cheap: finer window edges), ``range_oversample``
-4.0 (``q_r``). At the defaults a point target's image is -42 dB from
+4.0 (``q_r``), ``lookup_upsample`` 16 (cap on the range FFT's zero-padding for the first
+stage's linear lookup: 8 halves the range compression for -39 dB, 4 gives -32 dB). At the
+defaults a point target's image is -44 dB from
 exact BPA (straight track, Doppler band selection), -39 dB (curved track, ground plane, whole
 beam); the error falls by ~19 dB from ``q_a`` = 2 to 4 and ~5 dB from 4 to 8, and is -31 dB at
 ``q_r`` = 2. Processing the whole beam with a rect window, the hard cut of the target's echo
@@ -59,11 +64,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import drjit as dr
 import numpy as np
 import xarray as xr
-from drjit.llvm import Float32, UInt32
+from drjit.llvm import Float32, UInt32, UInt64
 from numpy.typing import NDArray
 from tqdm.auto import tqdm
 
@@ -88,7 +94,7 @@ __all__ = ["FFBP_DEFAULTS", "focus_ffbp"]
 
 FFBP_DEFAULTS: dict[str, float | str] = {
     "factor": 4, "first_subaperture": 8, "final_subapertures": 8, "angle_oversample": 4.0,
-    "range_oversample": 4.0, "first_angle_oversample": 4.0}
+    "range_oversample": 4.0, "first_angle_oversample": 4.0, "lookup_upsample": 16}
 """Default FFBP options (see the module docstring)."""
 
 _MARGIN = 3
@@ -134,7 +140,8 @@ def focus_ffbp(raw: xr.Dataset, layout_or_pixels: dict | NDArray, *, half_width:
         Zero-padding factor of the range FFT (first-stage lookup, as BPA).
     options : dict, optional
         ``factor``, ``first_subaperture``, ``final_subapertures``, ``angle_oversample``,
-        ``first_angle_oversample``, ``range_oversample`` (:data:`FFBP_DEFAULTS`; module
+        ``first_angle_oversample``, ``range_oversample``, ``lookup_upsample``
+        (:data:`FFBP_DEFAULTS`; module
         docstring).
     band_selection : {"doppler", "pixel"} or None
         As :func:`mitsar.focus.bpa.focus_bpa`.
@@ -152,7 +159,8 @@ def focus_ffbp(raw: xr.Dataset, layout_or_pixels: dict | NDArray, *, half_width:
     settings = _options(options)
     pixels = _pixel_array(layout_or_pixels)
     bp = prepare(raw, half_width=half_width, window=window, range_window=range_window,
-                 remove_rvp=remove_rvp, range_upsample=range_upsample,
+                 remove_rvp=remove_rvp,
+                 range_upsample=min(range_upsample, settings["lookup_upsample"]),
                  band_selection=band_selection)
     if bp.band_selection == "pixel" and half_width < bp.beam_half_width:
         raise ParameterError(
@@ -191,13 +199,15 @@ def focus_ffbp(raw: xr.Dataset, layout_or_pixels: dict | NDArray, *, half_width:
     sums, totals = backproject_drjit(profile, frequency, radar, flat_nodes, positions,
                                      velocities, bp.centroid, kernel_half_width, kernel_window,
                                      motion_correction, sweep_range=sweep_range)
-    rho = np.linalg.norm(nodes - stage.centre[:, None, None, :], axis=-1)
+    # The nodes lie at the grid's ranges from their centre (by construction).
+    rho = (stage.rho0[:, None] + stage.rho_step * np.arange(stage.shape[0]))[:, :, None]
     stage.values = (sums.reshape(nodes.shape[:3])
                     * np.exp(2j * np.pi * carrier_turns(rho, wavenumber, np.floor)))
     stage.totals = totals.reshape(nodes.shape[:3])
     bar.update()
 
-    # Merge stages.
+    # Merge stages (the sums of the weights only where the normalisation reads them).
+    with_totals = bp.band_selection != "doppler"
     for index, groups in enumerate(stages[1:], start=1):
         parent = _make_stage(groups, local_positions, velocities, sample, normal, plane_point,
                              rho_step, radar.wavelength, settings["angle_oversample"],
@@ -209,7 +219,7 @@ def focus_ffbp(raw: xr.Dataset, layout_or_pixels: dict | NDArray, *, half_width:
         end_child = np.repeat(children[1], per_node)
         reference = np.repeat(parent.centre, per_node, axis=0)
         merged, totals = _merge(stage, nodes.reshape(-1, 3), reference, first_child,
-                                end_child, wavenumber)
+                                end_child, wavenumber, with_totals)
         parent.values = merged.reshape(nodes.shape[:3])
         parent.totals = totals.reshape(nodes.shape[:3])
         stage = parent
@@ -227,7 +237,7 @@ def focus_ffbp(raw: xr.Dataset, layout_or_pixels: dict | NDArray, *, half_width:
         first_child = np.zeros(len(pixels), dtype=np.uint32)
         end_child = np.full(len(pixels), len(stage.first), dtype=np.uint32)
     merged, total = _merge(stage, local_pixels, np.zeros((1, 3)), first_child, end_child,
-                           wavenumber)
+                           wavenumber, with_totals)
     # Re-modulate by the carrier of the range from the local origin, in float64.
     merged *= np.exp(-2j * np.pi * carrier_turns(np.linalg.norm(local_pixels, axis=-1),
                                                  wavenumber, np.floor))
@@ -251,9 +261,9 @@ def _options(options: dict | None) -> dict:
             raise ParameterError("focus", "algorithm_options",
                                  f"FFBP options among {sorted(FFBP_DEFAULTS)}", key)
         settings[key] = value
-    for key in ("factor", "first_subaperture", "final_subapertures"):
+    for key in ("factor", "first_subaperture", "final_subapertures", "lookup_upsample"):
         value = settings[key]
-        low = 2 if key != "final_subapertures" else 1
+        low = 2 if key in ("factor", "first_subaperture") else 1
         if not (isinstance(value, int | np.integer) and value >= low):
             raise ParameterError("focus", f"algorithm_options['{key}']", f"an integer >= {low}",
                                  value)
@@ -362,39 +372,51 @@ def _node_positions(stage: _Stage, normal: NDArray, plane_point: NDArray) -> NDA
     Node (rho, alpha) of sub-aperture j is where the sphere ``|x - c| = rho``, the cone
     ``a . (x - c) = rho alpha`` and the image plane meet, on the side of the pixels:
     ``x = c + rho (alpha a + s (cos phi b1 + sin phi b2))``, ``s = sqrt(1 - alpha^2)``, with
-    ``A cos phi + B sin phi = C`` from the plane equation.
+    ``A cos phi + B sin phi = C`` from the plane equation: ``A = rho s (b1 . n)``,
+    ``B = rho s (b2 . n)``, so ``phi = beta +- gamma`` with ``beta = atan2(b2 . n, b1 . n)``
+    (per sub-aperture) and ``cos gamma = C / sqrt(A^2 + B^2)``; the sign is the one that puts
+    the node on the pixels' side, ``sign((x - c) . (n x a))`` of the plane centre. Written with
+    ``cos gamma`` and ``sin gamma = sqrt(1 - cos^2 gamma)`` only (no inverse trigonometry),
+    on (J, N_rho, N_alpha) arrays.
     """
-    rho = stage.rho0[:, None] + stage.rho_step * np.arange(stage.shape[0])
+    rho = (stage.rho0[:, None] + stage.rho_step * np.arange(stage.shape[0]))[:, :, None]
     alpha = np.clip(stage.alpha0[:, None] + stage.alpha_step * np.arange(stage.shape[1]),
-                    -1.0, 1.0)
+                    -1.0, 1.0)[:, None, :]
+    sine = np.sqrt(1 - alpha**2)
     axis = stage.axis
     helper = np.where(np.abs(axis[:, :1]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]])
     b1 = np.cross(axis, helper)
     b1 /= np.linalg.norm(b1, axis=-1, keepdims=True)
     b2 = np.cross(axis, b1)
-    sine = np.sqrt(1 - alpha**2)[:, None, :]
-    r = rho[:, :, None]
-    height = ((stage.centre - plane_point) @ normal)[:, None, None]
-    a_term = (axis @ normal)[:, None, None]
-    big_a = r * sine * (b1 @ normal)[:, None, None]
-    big_b = r * sine * (b2 @ normal)[:, None, None]
-    big_c = -height - r * alpha[:, None, :] * a_term
-    amplitude = np.sqrt(big_a**2 + big_b**2)
-    base = np.arctan2(big_b, big_a)
-    spread = np.arccos(np.clip(big_c / np.maximum(amplitude, 1e-12), -1.0, 1.0))
+
+    def per_j(vector: NDArray) -> NDArray:
+        return vector[:, None, None]
+
+    b1n, b2n = b1 @ normal, b2 @ normal
+    beta = np.arctan2(b2n, b1n)
+    cos_beta, sin_beta = per_j(np.cos(beta)), per_j(np.sin(beta))
+    height = per_j((stage.centre - plane_point) @ normal)
+    projection = per_j(np.hypot(b1n, b2n))
+    cos_gamma = np.clip((-height - rho * alpha * per_j(axis @ normal))
+                        / np.maximum(rho * sine * projection, 1e-12), -1.0, 1.0)
+    sin_gamma = np.sqrt(1 - cos_gamma**2)
     # The pixels' side: the sign of (x - c) . (n x a) that the plane centre has.
     side_vector = np.cross(normal[None, :], axis)
     side = np.sign(np.einsum("ji,ji->j", plane_point - stage.centre, side_vector))
-    side = np.where(side == 0, 1.0, side)[:, None, None]
-    candidates = []
-    for phi in (base + spread, base - spread):
-        direction = (alpha[:, None, :, None] * axis[:, None, None, :]
-                     + sine[..., None] * (np.cos(phi)[..., None] * b1[:, None, None, :]
-                                          + np.sin(phi)[..., None] * b2[:, None, None, :]))
-        candidates.append(direction)
-    lateral = np.einsum("jrai,ji->jra", candidates[0], side_vector)
-    direction = np.where((np.sign(lateral) == side)[..., None], candidates[0], candidates[1])
-    return stage.centre[:, None, None, :] + r[..., None] * direction
+    side = per_j(np.where(side == 0, 1.0, side))
+    p, q = (np.einsum("ji,ji->j", b, side_vector) for b in (b1, b2))
+    lateral_plus = (alpha * per_j(np.einsum("ji,ji->j", axis, side_vector))
+                    + sine * (cos_gamma * per_j(np.cos(beta) * p + np.sin(beta) * q)
+                              + sin_gamma * per_j(np.cos(beta) * q - np.sin(beta) * p)))
+    sign = np.where(np.sign(lateral_plus) == side, 1.0, -1.0)
+    cos_phi = cos_beta * cos_gamma - sign * sin_beta * sin_gamma
+    sin_phi = sin_beta * cos_gamma + sign * cos_beta * sin_gamma
+    radial = rho * sine
+    out = np.empty((*cos_phi.shape, 3))
+    for i in range(3):
+        out[..., i] = (per_j(stage.centre[:, i]) + rho * alpha * per_j(axis[:, i])
+                       + radial * (cos_phi * per_j(b1[:, i]) + sin_phi * per_j(b2[:, i])))
+    return out
 
 
 def _children_of(child: _Stage, parent: _Stage) -> tuple[NDArray, NDArray]:
@@ -407,14 +429,15 @@ def _children_of(child: _Stage, parent: _Stage) -> tuple[NDArray, NDArray]:
 # The merge kernel
 # --------------------------------------------------------------------------------------------
 def _merge(stage: _Stage, points: NDArray, reference: NDArray, first_child: NDArray,
-           end_child: NDArray, wavenumber: float, chunk: int = 1 << 22
-           ) -> tuple[NDArray, NDArray]:
+           end_child: NDArray, wavenumber: float, with_totals: bool = True,
+           chunk: int = 1 << 22) -> tuple[NDArray, NDArray]:
     """Sum of the children's images at ``points``, demodulated about ``reference``.
 
     Returns ``sum_j V_j(rho_j, alpha_j) exp(j 2 pi k (rho_ref - rho_j))`` (k: two-way
     wavenumber ``2 f_c / c`` in cycles per metre) and ``sum_j T_j`` (T_j: the child's
-    interpolated sum of sweep weights). One kernel lane per
-    (point, child) pair, in chunks of ``chunk`` lanes, summed per point with ``bincount``.
+    interpolated sum of sweep weights; zeros unless ``with_totals``). One kernel lane per
+    point, a symbolic loop over its children ``first_child <= j < end_child``, in chunks of
+    ``chunk`` points.
     """
     n_rho, n_alpha = stage.shape
     f32 = np.float32
@@ -422,34 +445,47 @@ def _merge(stage: _Stage, points: NDArray, reference: NDArray, first_child: NDAr
     def column(array: NDArray, index: int) -> Float32:
         return jit_array(Float32, array[:, index], f32)
 
-    if len(reference) == 1:
-        reference = np.broadcast_to(reference, points.shape)
-    point_data = [jit_array(Float32, a[:, i], f32) for a in (points, reference) for i in range(3)]
     child = [column(stage.centre, i) for i in range(3)] + [column(stage.axis, i)
                                                            for i in range(3)]
     child += [jit_array(Float32, stage.rho0, f32), jit_array(Float32, stage.alpha0, f32)]
-    values = stage.values.reshape(len(stage.first), -1)
-    images = [jit_array(Float32, part.ravel(), f32)
-              for part in (values.real, values.imag, stage.totals)]
+    # (real, imag) float32 pairs, one 64-bit word per node: one gather per tap.
+    values = jit_array(UInt64, np.ascontiguousarray(stage.values, dtype=np.complex64)
+                       .view(np.uint64).ravel(), np.uint64)
+    totals = jit_array(Float32, stage.totals.ravel() if with_totals else np.zeros(1), f32)
     scalars = {"rho_step": dr.opaque(Float32, stage.rho_step),
                "alpha_step": dr.opaque(Float32, stage.alpha_step),
                "n_rho": dr.opaque(UInt32, n_rho), "n_alpha": dr.opaque(UInt32, n_alpha),
                "wavenumber": dr.opaque(Float32, wavenumber)}
-    counts = end_child.astype(np.int64) - first_child.astype(np.int64)
-    offsets = np.concatenate([[0], np.cumsum(counts)])
+    reference = np.broadcast_to(reference, points.shape)
     out = np.zeros((3, len(points)))
-    for start in range(0, int(offsets[-1]), chunk):
-        lane = np.arange(start, min(start + chunk, int(offsets[-1])))
-        point = np.searchsorted(offsets, lane, side="right") - 1
-        child_index = first_child[point] + (lane - offsets[point])
-        result = _merge_lanes(jit_array(UInt32, point, np.uint32),
-                              jit_array(UInt32, child_index, np.uint32), point_data, child,
-                              images, scalars)
+    for start in range(0, len(points), chunk):
+        part = slice(start, start + chunk)
+        point_data = [jit_array(Float32, a[part, i], f32) for a in (points, reference)
+                      for i in range(3)]
+        result = _merge_loop(point_data, jit_array(UInt32, first_child[part], np.uint32),
+                             jit_array(UInt32, end_child[part], np.uint32), child, values,
+                             totals, scalars, with_totals)
         dr.eval(*result)
-        for row, part in enumerate(result):
-            out[row] += np.bincount(point, weights=np.asarray(part, dtype=float),
-                                    minlength=len(points))
+        for row, value in enumerate(result):
+            out[row, part] = np.asarray(value, dtype=float)
     return out[0] + 1j * out[1], out[2]
+
+
+def _merge_loop(point_data: list, first: UInt32, end: UInt32, child: list, values: UInt64,
+                totals: Float32, scalars: dict, with_totals: bool) -> tuple:
+    """One lane per point, a symbolic loop over its children (:func:`_merge_lanes`)."""
+    width = dr.width(first)
+
+    def condition(k: UInt32, *_: Float32) -> Any:
+        return k < end
+
+    def body(k: UInt32, acc_real: Float32, acc_imag: Float32, acc_total: Float32) -> tuple:
+        part_real, part_imag, part_total = _merge_lanes(k, point_data, child, values, totals,
+                                                        scalars, with_totals)
+        return k + 1, acc_real + part_real, acc_imag + part_imag, acc_total + part_total
+
+    state = (UInt32(first), *[dr.zeros(Float32, width) for _ in range(3)])
+    return dr.while_loop(state, condition, body)[1:]
 
 
 def _keys(t: Float32) -> tuple[Float32, Float32, Float32, Float32]:
@@ -460,14 +496,13 @@ def _keys(t: Float32) -> tuple[Float32, Float32, Float32, Float32]:
             -1.5 * t3 + 2.0 * t2 + 0.5 * t, 0.5 * t3 - 0.5 * t2)
 
 
-def _merge_lanes(point, k, point_data, child, images, scalars):  # noqa: ANN001, ANN202
-    """One lane per (point, child) pair: the child's re-phased image at the point."""
-    x, y, z, rx, ry, rz = (dr.gather(Float32, array, point) for array in point_data)
-    real, imag, totals = images
+def _merge_lanes(k: UInt32, point_data: list, child: list, values: UInt64, totals: Float32,
+                 scalars: dict, with_totals: bool) -> tuple[Float32, Float32, Float32]:
+    """Child k's re-phased image at the lane's point (steps 4-5 of the module docstring)."""
+    x, y, z, rx, ry, rz = point_data
     cx_all, cy_all, cz_all, ax_all, ay_all, az_all, rho0_all, alpha0_all = child
     rho_step, alpha_step = scalars["rho_step"], scalars["alpha_step"]
     n_rho, n_alpha, wavenumber = scalars["n_rho"], scalars["n_alpha"], scalars["wavenumber"]
-    width = dr.width(point)
     cx = dr.gather(Float32, cx_all, k)
     cy = dr.gather(Float32, cy_all, k)
     cz = dr.gather(Float32, cz_all, k)
@@ -489,22 +524,24 @@ def _merge_lanes(point, k, point_data, child, images, scalars):  # noqa: ANN001,
     iu = dr.clip(iu, 1.0, Float32(n_rho - 3))
     iv = dr.clip(iv, 1.0, Float32(n_alpha - 3))
     base = k * n_rho * n_alpha + (UInt32(iu) - 1) * n_alpha + UInt32(iv) - 1
-    # Sweep weights: bilinear (they vary on the scale of the window, not of the phase).
-    inner = base + n_alpha + 1
-    weights_row = interpolate(dr.gather(Float32, totals, inner, valid),
-                              dr.gather(Float32, totals, inner + 1, valid), fv)
-    weights_next = interpolate(dr.gather(Float32, totals, inner + n_alpha, valid),
-                               dr.gather(Float32, totals, inner + n_alpha + 1, valid), fv)
-    child_total = interpolate(weights_row, weights_next, fu)
-    v_real = dr.zeros(Float32, width)
-    v_imag = dr.zeros(Float32, width)
+    child_total = Float32(0.0)
+    if with_totals:
+        # Sweep weights: bilinear (they vary on the scale of the window, not of the phase).
+        inner = base + n_alpha + 1
+        weights_row = interpolate(dr.gather(Float32, totals, inner, valid),
+                                  dr.gather(Float32, totals, inner + 1, valid), fv)
+        weights_next = interpolate(dr.gather(Float32, totals, inner + n_alpha, valid),
+                                   dr.gather(Float32, totals, inner + n_alpha + 1, valid), fv)
+        child_total = interpolate(weights_row, weights_next, fu)
+    v_real = Float32(0.0)
+    v_imag = Float32(0.0)
     for a in range(4):
-        row_real = dr.zeros(Float32, width)
-        row_imag = dr.zeros(Float32, width)
+        row_real = Float32(0.0)
+        row_imag = Float32(0.0)
         for b in range(4):
-            index = base + a * n_alpha + b
-            row_real += wv[b] * dr.gather(Float32, real, index, valid)
-            row_imag += wv[b] * dr.gather(Float32, imag, index, valid)
+            word = dr.gather(UInt64, values, base + a * n_alpha + b, valid)
+            row_real += wv[b] * dr.reinterpret_array(Float32, UInt32(word))
+            row_imag += wv[b] * dr.reinterpret_array(Float32, UInt32(word >> 32))
         v_real += wu[a] * row_real
         v_imag += wu[a] * row_imag
     # rho_ref - rho_j = (c_j - c_ref) . (2 y - c_ref - c_j) / (rho_ref + rho_j): no

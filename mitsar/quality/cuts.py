@@ -115,9 +115,18 @@ def _peak(p: NDArray[np.float64]) -> tuple[int, float, float]:
 
 
 def _null_indices(p: NDArray[np.float64], k: int) -> tuple[int, int]:
-    """Sample indices of the first local minima either side of the peak sample ``k``."""
-    rising_right = np.flatnonzero(np.diff(p[k:]) >= 0.0)
-    rising_left = np.flatnonzero(np.diff(p[k::-1]) >= 0.0)
+    """Sample indices of the first local minima either side of the peak sample ``k``.
+
+    Searched beyond the half-power points only: a null lies below -3 dB, and near the flat top
+    of a finely sampled main lobe rounding noise (float32 images) can make a spurious minimum.
+    """
+    half = 0.5 * p[k]
+    below_right = np.flatnonzero(p[k:] < half)
+    below_left = np.flatnonzero(p[k::-1] < half)
+    start_right = int(below_right[0]) if below_right.size else p.size - k - 1
+    start_left = int(below_left[0]) if below_left.size else k
+    rising_right = start_right + np.flatnonzero(np.diff(p[k + start_right:]) >= 0.0)
+    rising_left = start_left + np.flatnonzero(np.diff(p[k - start_left::-1]) >= 0.0)
     if rising_right.size == 0 or rising_left.size == 0:
         side = "right" if rising_right.size == 0 else "left"
         raise MeasurementError(
