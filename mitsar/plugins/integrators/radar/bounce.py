@@ -41,17 +41,20 @@ from mitsar.plugins.integrators.radar.deposit import deposit
 from mitsar.plugins.ops import DRJIT_OPS
 
 
-def shape_table(scene: Any) -> dict:
+def shape_table(scene: Any, absorbers: tuple[Any, ...] = ()) -> dict:
     """Per-shape values of the multipath kernel, indexed by Dr.Jit registry id of the shape.
 
     ``rho``: stacked θ-tables of the specular field factor ``Γ(θ_i) R``
     (:func:`mitsar.model.doublelobe.specular_field_table`), row ``srow`` of the shape (row 0 is
-    zero: the ray stops: absorbers, point-target markers, other BSDFs); ``gscale``: 1 where
+    zero: the ray stops: absorbers, point-target markers, other BSDFs, and the shapes in
+    ``absorbers``, whose specular returns physical optics gives, docs/physical_optics.md §5);
+    ``gscale``: 1 where
     ghosts may scatter (double-lobe materials); ``grow``: row of the ghost tables ``wb``,
     ``wf``, ``ab``, ``af`` (:func:`mitsar.model.doublelobe.bistatic_lobe_tables`).
     """
     shapes = list(scene.shapes())
     ids = [int(dr.reinterpret_array(mi.UInt32, mi.ShapePtr(shape))[0]) for shape in shapes]
+    stops = {int(dr.reinterpret_array(mi.UInt32, mi.ShapePtr(shape))[0]) for shape in absorbers}
     size = max(ids + [0]) + 1
     srow = np.zeros(size, dtype=np.uint32)
     specular: list[Any] = [None]
@@ -64,7 +67,7 @@ def shape_table(scene: Any) -> dict:
             if getattr(bsdf, "MITSAR_KIND", None) == "doublelobe" else None
         if material is None:
             continue
-        if material.specular_fraction > 0.0:
+        if material.specular_fraction > 0.0 and ident not in stops:
             if material not in specular:
                 specular.append(material)
             srow[ident] = specular.index(material)

@@ -38,6 +38,9 @@ class TraceSetup:
         The multipath ray grid (None: ``max_depth = 1``).
     planar : bool
         2D mode.
+    absorbers : tuple of mitsuba.Shape
+        Shapes on which multipath rays stop instead of reflecting: those whose specular
+        returns physical optics gives (docs/physical_optics.md §5).
     """
 
     ray_frames: NDArray
@@ -46,6 +49,7 @@ class TraceSetup:
     receiver_frames: NDArray
     rays: RaySet | None
     planar: bool
+    absorbers: tuple[Any, ...] = ()
 
     @property
     def bistatic(self) -> bool:

@@ -1,0 +1,251 @@
+"""Physical-optics echoes of a scene's planar facets and their bounce chains into the range
+histograms (docs/physical_optics.md §5).
+
+The facets of the shapes that opt in (:func:`mitsar.scene.facets.scene_facets`) are split once
+per acquisition into sub-facets that are each in their own far field for the nearest antenna
+position of the track (:func:`mitsar.model.physical_optics.subfacet_size`) and no larger than a
+quarter range cell (so each deposits at one range). The bounce chains of the facets (single
+facets, dihedral pairs, trihedral triples, up to ``max_length`` reflections) are enumerated
+once (:func:`mitsar.model.bounce_chains.facet_chains`, pruned by the beam); each chain ends on
+the sub-facets of its last facet. For every sweep, chain and sub-facet ``j``:
+
+    a_j = sqrt(P_T G² λ² / (4π)²) · sqrt(P(entry) P(exit)) · S_j / (√(4π) R_t R_r),
+
+``S_j`` the chain's PO amplitude through the sub-facet with the materials' ``Γ(θ_m) R``
+(:func:`mitsar.model.bounce_chains.chain_echo`), ``P`` the one-way power pattern toward the
+first and the last reflection point, deposited like every other contribution
+(:mod:`mitsar.model.histogram`) at the delay ``(R_t + R_r)/c`` of the path through the
+centroid, its Doppler, and order = the chain's length. Shadowing: a ``ray_test`` from the
+antenna to the last reflection point and, for chains, one to the first. Facets of moving shapes
+are translated to their mid-sweep position (docs/integrator.md §Moving objects). NumPy,
+vectorised over sweep × chain × sub-facet lanes in blocks; no Python loop over sweeps.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from mitsar.errors import ParameterError
+from mitsar.model import histogram as hg
+from mitsar.model import physical_optics as po
+from mitsar.model.bounce_chains import chain_echo, facet_chains, facets_in_beam, mirror_points
+from mitsar.model.geometry.antenna import direction_sines, one_way_pattern
+from mitsar.model.radar import SPEED_OF_LIGHT, Radar
+from mitsar.model.signal import radar_equation_amplitude
+from mitsar.scene.facets import FacetSet, segments_visible
+
+__all__ = ["MAX_CHAIN_FACETS", "MAX_CHAIN_ROWS", "MAX_SUBFACETS", "FacetEchoes"]
+
+MAX_SUBFACETS = 400_000
+"""Refuse more sub-facets than this (a large wall near the track): choose the shapes by id."""
+
+MAX_CHAIN_ROWS = 2_000_000
+"""Refuse more (chain, sub-facet) pairs than this (many mutually facing facets and a deep
+``max_depth``): choose fewer shapes or a smaller ``max_depth``."""
+
+MAX_CHAIN_FACETS = 2048
+"""Refuse bounce chains (``max_depth > 2``) among more facets than this: their pairwise link
+test holds facets² × 3 values (100 MB here)."""
+
+_BLOCK_LANES = 1 << 16
+"""Sweep × chain × sub-facet lanes per block (bounds the clipping temporaries to ~100 MB)."""
+
+_SWEEP_BLOCK = 256
+"""Sweeps per block of the set-up's nearest-range and beam tests."""
+
+
+class FacetEchoes:
+    """PO echoes of a facet set along one acquisition, deposited sweep block by sweep block.
+
+    Parameters
+    ----------
+    radar : Radar
+    scene : mitsuba.Scene
+        For the shadow rays (in the state of the sweeps being deposited).
+    facets : FacetSet
+        The facets that use physical optics.
+    geometry : dict
+        Platform state per sweep of the whole acquisition (``slow_time``, ``position``,
+        ``velocity``, :func:`mitsar.raw.product.sweep_geometry`).
+    frames : numpy.ndarray, shape (sweeps, 3, 3)
+        Antenna-to-world rotations per sweep.
+    ranges : numpy.ndarray
+        Apparent ranges of the histogram bins [m].
+    bins_per_cell : int
+        Histogram bins per range cell.
+    max_length : int
+        Longest chain (reflections): 1 single facets only, 2 dihedrals, 3 trihedrals.
+    velocities : numpy.ndarray, shape (len(facets.shape_ids), 3), optional
+        Velocity of each selected shape [m/s] (default static).
+    beam_cull : float
+        Beamwidths of direction sine within which a chain's first and last facets must come
+        at some sweep (the integrator's ``beam_cull``).
+    """
+
+    def __init__(self, radar: Radar, scene: Any, facets: FacetSet, geometry: dict,
+                 frames: NDArray, ranges: NDArray, bins_per_cell: int, max_length: int = 1,
+                 velocities: NDArray | None = None, beam_cull: float = 2.0) -> None:
+        self.radar, self.scene, self.facets = radar, scene, facets
+        self.geometry, self.frames, self.ranges = geometry, frames, ranges
+        self.step = hg.range_step(radar, bins_per_cell)
+        self.times = np.asarray(geometry["slow_time"], float) + radar.sweep_duration / 2
+        positions = np.asarray(geometry["position"], dtype=np.float64)
+        shape_velocity = (np.zeros((len(facets.shape_ids), 3)) if velocities is None
+                          else np.asarray(velocities, dtype=np.float64))
+        tri = np.asarray(facets.triangles)
+        self.facet_velocity = shape_velocity[facets.shape] if len(tri) else np.zeros((0, 3))
+        centre = tri.mean(axis=1)
+        radius = np.linalg.norm(tri - centre[:, None], axis=-1).max(axis=1, initial=0.0)
+        nearest = np.full(len(tri), np.inf)
+        in_beam = np.zeros(len(tri), dtype=bool)
+        for start in range(0, len(positions), _SWEEP_BLOCK):    # blocks of sweeps
+            block = slice(start, start + _SWEEP_BLOCK)
+            moved = centre[None] + self.times[block, None, None] * self.facet_velocity[None]
+            nearest = np.minimum(nearest, np.linalg.norm(
+                moved - positions[block, None], axis=-1).min(axis=0, initial=np.inf))
+            in_beam |= facets_in_beam(moved, radius, positions[block], frames[block],
+                                      radar.azimuth_beamwidth, radar.elevation_beamwidth,
+                                      beam_cull)
+        nearest = np.maximum(nearest - radius, radar.wavelength)
+        size = np.minimum(po.subfacet_size(nearest, radar.wavelength),
+                          radar.range_resolution / 4)
+        longest = np.linalg.norm(tri - np.roll(tri, -1, axis=1), axis=-1).max(axis=1,
+                                                                            initial=0.0)
+        expected = int(np.sum(np.maximum(np.ceil(longest / size), 1) ** 2))
+        if expected > MAX_SUBFACETS:
+            raise ParameterError("physical_optics", "physical_optics",
+                                 f"shapes that split into <= {MAX_SUBFACETS} far-field "
+                                 f"sub-facets (edge <= sqrt(λR/16) and <= a quarter range "
+                                 f"cell); choose fewer or smaller shapes by id",
+                                 f"{expected} sub-facets for {list(facets.shape_ids)}")
+        self.triangles, self.parent = po.subdivide_facets(tri, np.full(len(tri), 3), size)
+        self.shape = facets.shape[self.parent]
+        self.velocity = self.facet_velocity[self.parent]
+        if max_length > 1 and len(tri) > MAX_CHAIN_FACETS:
+            raise ParameterError("physical_optics", "physical_optics",
+                                 f"<= {MAX_CHAIN_FACETS} facets (triangles) for bounce chains "
+                                 "(max_depth > 2): choose fewer shapes by id or max_depth <= 2",
+                                 f"{len(tri)} triangles of {list(facets.shape_ids)}")
+        self.chains = facet_chains(tri, positions, max_length, in_beam)
+        self.rows = [self._rows(chains) for chains in self.chains]
+        total = sum(len(sub) for _, sub in self.rows)
+        if total > MAX_CHAIN_ROWS:
+            raise ParameterError("physical_optics", "max_depth",
+                                 f"<= {MAX_CHAIN_ROWS} (bounce chain, sub-facet) pairs: a "
+                                 "smaller max_depth or fewer shapes by id",
+                                 f"{total} for chains of up to {max_length} facets of "
+                                 f"{list(facets.shape_ids)}")
+
+    def __len__(self) -> int:
+        return len(self.triangles)
+
+    @property
+    def chain_counts(self) -> list[int]:
+        """Number of chains of each length 1, 2, … (pruned by the beam)."""
+        return [len(c) for c in self.chains]
+
+    def _rows(self, chains: NDArray) -> tuple[NDArray, NDArray]:
+        """(prefix facets (R, n−1), sub-facet of the last facet (R,)) of each chain × each
+        sub-facet of its last facet."""
+        order = np.argsort(self.parent, kind="stable")
+        counts = np.bincount(self.parent, minlength=len(self.facets.triangles))
+        starts = np.cumsum(counts) - counts
+        per = counts[chains[:, -1]]
+        rep = np.repeat(np.arange(len(chains)), per)
+        within = np.arange(int(per.sum())) - np.repeat(np.cumsum(per) - per, per)
+        return chains[rep, :-1], order[starts[chains[rep, -1]] + within]
+
+    def histogram(self, sweeps: NDArray, orders: int, rvp: bool = True,
+                  normalized: bool = False) -> NDArray[np.complex128]:
+        """Histograms of the PO echoes of some sweeps, shape (len(sweeps), orders, bins)
+        [sqrt(W)]; a chain of n facets deposits at order n (chains longer than
+        ``orders − 1`` are left out). ``rvp``, ``normalized`` as
+        :func:`mitsar.raw.traced.trace`; the scene must be in the state of these sweeps (its
+        shapes where they are at mid-sweep) for the shadow rays."""
+        sweeps = np.asarray(sweeps, dtype=np.int64)
+        out = np.zeros((len(sweeps), orders, len(self.ranges)), dtype=np.complex128)
+        for length, (prefix, sub) in enumerate(self.rows, start=1):   # chain lengths (≤ 7)
+            if length >= orders or len(sub) == 0:
+                continue
+            lanes = len(sweeps) * len(sub)
+            for start in range(0, lanes, _BLOCK_LANES):               # blocks of lanes
+                lane = np.arange(start, min(start + _BLOCK_LANES, lanes))
+                row, pick = lane // len(sub), lane % len(sub)
+                self._deposit(out, length, row, sweeps[row], prefix[pick], sub[pick], rvp,
+                              normalized)
+        return out
+
+    def _deposit(self, out: NDArray, length: int, row: NDArray, sweeps: NDArray,
+                 prefix: NDArray, sub: NDArray, rvp: bool, normalized: bool) -> None:
+        radar = self.radar
+        t = self.times[sweeps]
+        p = self.geometry["position"][sweeps]
+        frames = self.frames[sweeps]
+        last = self.triangles[sub] + (self.velocity[sub] * t[:, None])[:, None, :]
+        u_exit, _, p_exit = _pattern(last.mean(axis=1) - p, frames, radar)
+        front = p_exit > 0                               # cheap cull: behind the antenna
+        if not np.any(front):
+            return
+        row, sweeps, prefix, sub, t, p = (a[front] for a in (row, sweeps, prefix, sub, t, p))
+        frames, last = frames[front], last[front]
+        tri = self.facets.triangles
+        links = [tri[prefix[:, m]] + (self.facet_velocity[prefix[:, m]] * t[:, None])[:, None]
+                 for m in range(length - 1)] + [last]
+        shapes = np.concatenate([self.facets.shape[prefix], self.shape[sub][:, None]], axis=1)
+        echo = chain_echo(links, p, p, radar.wavelength,
+                          lambda m, cos: self.facets.reflection(cos, shapes[:, m]))
+        _, _, p_tx = _pattern(echo.entry - p, frames, radar)
+        _, _, p_rx = _pattern(echo.exit - p, frames, radar)
+        pattern2 = p_tx * p_rx
+        keep = (echo.amplitude != 0) & (pattern2 > 0)
+        normals = [po.facet_plane(link)[1] for link in links]
+        for point, normal in ((echo.exit, normals[-1]), (echo.entry, normals[0])):
+            if np.any(keep):                             # shadow rays: exit, then entry
+                seen = segments_visible(self.scene, point[keep], normal[keep], p[keep])
+                keep[np.flatnonzero(keep)[~seen]] = False
+            if length == 1:
+                break
+        if not np.any(keep):
+            return
+        amplitude, r_t, r_r = echo.amplitude[keep], echo.transmit_range[keep], \
+            echo.receive_range[keep]
+        pattern2 = pattern2[keep]
+        if normalized:
+            amplitude = np.sqrt(pattern2) * amplitude
+        else:
+            amplitude = radar_equation_amplitude(radar, 1.0, r_t, r_r,
+                                                 two_way_pattern=pattern2) * amplitude
+        # path L = |c − I| + |p − c|, its rate with the image moving as the mirrored platform
+        # velocity in planes that translate with their shapes (docs/multipath.md, Doppler)
+        v_p = self.geometry["velocity"][sweeps][keep]
+        v_image = v_p
+        for m in range(length - 1):
+            anchor_velocity = self.facet_velocity[prefix[keep, m]]
+            v_image = mirror_points(v_image, anchor_velocity, normals[m][keep])
+        v_c = self.velocity[sub[keep]]
+        point = echo.exit[keep]
+        rate = (np.einsum("ni,ni->n", _unit(point - echo.image[keep]), v_c - v_image)
+                + np.einsum("ni,ni->n", _unit(p[keep] - point), v_p - v_c))
+        path = r_t + r_r
+        cycles = hg.deposit_cycles(path / SPEED_OF_LIGHT, radar, 1.0 if rvp else 0.0)
+        value = amplitude * np.exp(2j * np.pi * (cycles - np.floor(cycles)))
+        hg.deposit(out, (row[keep], np.full(int(keep.sum()), length)), value,
+                   hg.apparent_range(0.5 * path, 0.5 * rate, radar), float(self.ranges[0]),
+                   self.step)
+
+
+def _unit(v: NDArray) -> NDArray:
+    return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-300)
+
+
+def _pattern(offset: NDArray, frames: NDArray, radar: Radar
+             ) -> tuple[NDArray, NDArray, NDArray]:
+    """Unit direction, distance and one-way power pattern toward ``offset`` (N, 3)."""
+    distance = np.linalg.norm(offset, axis=-1)
+    u = offset / np.maximum(distance, 1e-300)[:, None]
+    u_az, u_el, cos_b = direction_sines(u, frames)
+    return u, distance, one_way_pattern(u_az, u_el, radar.azimuth_beamwidth,
+                                        radar.elevation_beamwidth, cos_b)
