@@ -68,6 +68,7 @@ EXPECTED_SHAPES = {
     "trihedral": {"floor", "wall_y10", "wall_x0"},
     "cross_section_2d": {"floor", "ceiling", "wall_y0", "wall_y10"},
     "box_obstacle": {"floor", "cabinet"},
+    "walking_person": {"floor", "wall_y10", "wall_target", "person"},
 }
 
 
@@ -87,8 +88,8 @@ def test_canned_scene_loads(mi, name: str) -> None:
     assert {s.id for s in surfaces} == EXPECTED_SHAPES[name]
     assert [s.index for s in surfaces] == list(range(len(surfaces)))
     for s in surfaces:
-        if name == "point_target":
-            assert s.material is None  # absorbing floor and the target
+        if name == "point_target" or s.id == "wall_target":
+            assert s.material is None  # absorbing floor and the point targets
         else:
             assert s.material is not None and s.material.name == "concrete_94ghz_paper"
         lo, hi = (np.array(v) for v in (s.shape.bbox().min, s.shape.bbox().max))

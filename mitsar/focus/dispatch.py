@@ -20,6 +20,7 @@ from mitsar.focus.grid import Grid, SlantGrid, from_dict
 from mitsar.focus.image import make_image_product
 from mitsar.focus.mocomp import compensate, reference_line, reference_product
 from mitsar.focus.motion import is_straight_track
+from mitsar.focus.nesz import noise_variables
 from mitsar.focus.referenced import focus_referenced
 from mitsar.focus.windows import WINDOWS
 from mitsar.model.radar import Radar
@@ -105,9 +106,9 @@ def focus(raw: xr.Dataset, algorithm: str = "bpa", grid: Grid | dict | None = No
     if window not in WINDOWS:
         raise ParameterError("focus", "window", f"one of {WINDOWS}", window)
     range_window = window if range_window is None else range_window
-    if azimuth_resolution is not None and not azimuth_resolution > 0:
-        raise ParameterError("focus", "azimuth_resolution", "None or a resolution > 0 m",
-                             azimuth_resolution)
+    if azimuth_resolution is not None:
+        azimuth_resolution = checks.positive("focus", "azimuth_resolution", azimuth_resolution,
+                                             "None or a finite resolution > 0 m")
     if backend not in ("drjit", "numpy"):
         raise ParameterError("focus", "backend", "'drjit' or 'numpy'", backend)
     if autofocus is not None:
@@ -123,6 +124,9 @@ def focus(raw: xr.Dataset, algorithm: str = "bpa", grid: Grid | dict | None = No
     if isinstance(grid, dict):
         grid = from_dict(grid)
     grid = SlantGrid() if grid is None else grid
+    if not isinstance(grid, Grid):
+        raise ParameterError("focus", "grid", "None, a dict (mitsar.grid.from_dict) or a "
+                             "SlantGrid, PlaneGrid or PointsGrid", type(grid).__name__)
 
     radar = radar_of(raw)
     half_width = aperture_half_width(radar, azimuth_resolution)
@@ -171,6 +175,11 @@ def focus(raw: xr.Dataset, algorithm: str = "bpa", grid: Grid | dict | None = No
     shape = layout["position"].shape[:2]
     image = make_image_product(raw, np.reshape(values, shape), layout, {**processing, **extra},
                                coverage=np.reshape(coverage, shape))
+    if algorithm == "bpa" and "reference_range" not in raw.variables:  # docs/metrics.md §Noise
+        noise = noise_variables(raw, layout["position"].reshape(-1, 3), np.ravel(coverage),
+                                half_width, window, range_window)
+        for name, (flat, attrs) in (noise or {}).items():
+            image[name] = (layout["dims"], np.reshape(flat, shape), attrs)
     if autofocus is None:
         return image
     settings = PulseSettings(half_width=half_width, window=window, range_window=range_window,

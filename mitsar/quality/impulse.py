@@ -462,7 +462,9 @@ def measure_impulse_response(
         ``peak_position`` (world position at the fractional peak index, m), ``peak_index``
         (fractional (dim0, dim1) index), ``peak_offset_m`` (distance from the peak to
         ``target``, m; on a slant grid to the target's equivalent position on the grid),
-        ``peak_db`` (20 log10 |peak|, amplitude unit of the image); ``warnings`` (list of str:
+        ``peak_db`` (20 log10 |peak|, amplitude unit of the image); ``snr_db`` and ``nesz_db``
+        (the peak over the pixel's ``noise_power``, and its ``nesz_db``; only for images that
+        carry them, docs/metrics.md §Noise); ``warnings`` (list of str:
         neighbours, band fill) and ``neighbours`` (list of ``{"position", "level_db",
         "distance_m", "offset_cells"}``); ``islr_extent``, ``chip_cells``, ``upsample``,
         ``search_radius_m`` and ``cut_axes`` (values used).
@@ -488,6 +490,9 @@ def measure_impulse_response(
     """
     extent = parse_extent(islr_extent)
     factor = check_factor(upsample)
+    if search_radius_m is not None:
+        checks.positive("measure_impulse_response", "search_radius_m", search_radius_m,
+                        "a positive radius, m")
     if cut_axes not in CUT_AXES:
         raise ParameterError("measure_impulse_response", "cut_axes", f"one of {CUT_AXES}",
                              cut_axes)
@@ -587,7 +592,14 @@ def measure_impulse_response(
             f"lies inside the measurement window ({EXTENT_OPTION}={islr_extent!r}): the "
             "sidelobe metrics include its response"
         )
+    noise = {}
+    if "noise_power" in image.variables:  # SNR over the pixel noise floor, docs/metrics.md §Noise
+        at = tuple(np.clip(np.round(index).astype(int), 0, shape - 1))
+        floor = image["noise_power"].transpose(*geometry.dims).values[at]
+        noise = {"snr_db": 10.0 * math.log10(peak_power / float(floor)),
+                 "nesz_db": float(image["nesz_db"].transpose(*geometry.dims).values[at])}
     return {
+        **noise,
         "range": results["range"],
         "azimuth": results["azimuth"],
         "islr_2d_db": _islr_2d_db(power, cells, nulls, extent),

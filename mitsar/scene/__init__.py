@@ -7,6 +7,7 @@
 - :mod:`mitsar.scene.scatterers`: :class:`ScattererSet`, :func:`collect_scatterers` (what the
   radar integrator traces for direct backscatter).
 - :mod:`mitsar.scene.meshes`: :func:`box_mesh`, :func:`write_ply`.
+- :mod:`mitsar.scene.motion`: moving shapes (:class:`~mitsar.scene.motion.SceneMotion`).
 - :mod:`mitsar.scene.canned`: the bundled XML scenes.
 """
 

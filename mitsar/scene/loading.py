@@ -18,6 +18,7 @@ from typing import Any
 
 from mitsar.errors import MissingFileError, ParameterError, SceneError
 from mitsar.scene import canned
+from mitsar.scene.motion import MOTION_PROPERTIES, register_scene_motion
 from mitsar.scene.variant import register_plugins
 
 __all__ = ["load_scene"]
@@ -205,7 +206,70 @@ def load_scene(path_or_scene: Any, **params: Any) -> Any:
     str_params = {key: str(value) for key, value in params.items()}
     elements = _scan_xml(path)
     _check_referenced_files(path, elements, str_params)
+    motion, text = _shape_motion(path, elements, str_params)
     try:
-        return mi.load_file(str(path), optimize=False, **str_params)
+        if not motion:
+            return mi.load_file(str(path), optimize=False, **str_params)
+        # The shapes' velocity properties are mitsar's (mitsar.scene.motion): blanked out (same
+        # lines and columns, so errors still point into the file) and loaded from the text,
+        # with the scene's folder first on the file resolver for its meshes.
+        resolver = mi.file_resolver()
+        saved = [str(resolver[i]) for i in range(len(resolver))]
+        resolver.prepend(str(path.parent))
+        try:  # parameters used only by the blanked velocities are not passed on
+            scene = mi.load_string(text, optimize=False, **{
+                key: value for key, value in str_params.items() if f"${key}" in text})
+        finally:
+            resolver.clear()
+            for folder in saved:
+                resolver.append(folder)
+        register_scene_motion(scene, motion)
+        return scene
     except Exception as error:  # noqa: BLE001 - Mitsuba raises RuntimeError for everything
         raise _translate_error(error, path, elements, str_params) from error
+
+
+def _shape_motion(path: Path, elements: list[_Element], params: dict[str, str]
+                  ) -> tuple[dict[str, tuple[float, float, float]], str]:
+    """Velocities given as properties of ``<shape>`` elements, and the XML text without them.
+
+    ``<vector name="velocity" x=".." y=".." z=".."/>`` or ``<string name="velocity"
+    value="vx, vy, vz"/>`` [m/s] directly inside a shape with an ``id``.
+    """
+    motion: dict[str, tuple[float, float, float]] = {}
+    found = [(i, el) for i, el in enumerate(elements)
+             if el.parent is not None and elements[el.parent].tag == "shape"
+             and el.attrs.get("name") in MOTION_PROPERTIES]
+    if not found:
+        return motion, ""
+    lines = path.read_text(encoding="utf-8").splitlines(keepends=True)
+    params = {**{el.attrs["name"]: el.attrs.get("value", "") for el in elements
+                 if el.tag == "default" and "name" in el.attrs}, **params}
+    for index, el in found:
+        where = f"{path.name}: {_describe(elements, index)}"
+        shape = elements[el.parent]  # type: ignore[index]
+        if not shape.attrs.get("id"):
+            raise ParameterError(where, el.attrs["name"], "a shape with an id (moving shapes are "
+                                 "named)", "a shape without id")
+        if el.tag == "vector":
+            value: object = [_substitute(el.attrs.get(a, "0"), params) for a in "xyz"]
+        elif el.tag == "string":
+            value = _substitute(el.attrs.get("value", ""), params).replace(",", " ").split()
+        else:
+            raise ParameterError(where, el.attrs["name"], "<vector x= y= z=/> or <string "
+                                 "value=\"vx, vy, vz\"/>", f"<{el.tag}>")
+        try:
+            velocity = tuple(float(v) for v in value)  # type: ignore[union-attr]
+        except ValueError:
+            velocity = ()
+        if len(velocity) != 3 or not all(abs(v) < float("inf") for v in velocity):
+            raise ParameterError(where, el.attrs["name"], "three finite numbers [m/s]", value)
+        motion[shape.attrs["id"]] = velocity  # type: ignore[assignment]
+        line = lines[el.line - 1]
+        start = el.column - 1
+        end = line.find("/>", start)
+        if end < 0:
+            raise ParameterError(where, el.attrs["name"], "a self-closing element on one line "
+                                 "(<vector .../>)", line.strip())
+        lines[el.line - 1] = line[:start] + " " * (end + 2 - start) + line[end + 2:]
+    return motion, "".join(lines)

@@ -10,6 +10,8 @@ trihedral          floor, wall y = 10 m and wall x = 0 (y-z): the trihedral corn
 cross_section_2d   the room's y-z cross-section extruded along x (floor, ceiling, walls
                    y = 0 and y = 10 m; no end walls) for the 2D cases of §4.2 (Figs. 10-11)
 box_obstacle       concrete floor and a 1 × 0.5 × 2 m concrete cabinet (PLY mesh)
+walking_person     floor, back wall with a 1 m² reflector, and a 0.5 × 0.3 × 1.8 m box walking
+                   along x at ``speed`` (1 m/s) through the line of sight (a moving shape)
 ================== =========================================================================
 
 Walls are one rectangle each with the normal pointing into the room. Every scene declares
