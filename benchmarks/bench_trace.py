@@ -7,7 +7,8 @@ density of 9 scatterers per resolution cell, ~0.97 M scatterers):
    beam's half-space (rays/s), timed after reading a result;
 2. the integrator (:func:`mitsar.raw.traced` on the loaded scene, warm: scatterers and kernels
    cached): scatterer x sweep pairs/s, and contributions/s (pairs that survive the beam cull:
-   shadow ray + float64 phase + scatter-add);
+   visibility + float64 phase + scatter-add; shadow rays are shared by blocks of sweeps, see
+   ``bench_speed.py`` for the comparison with a ray per sweep and with Sionna RT);
 3. memory (RSS after a warm-up trace, and the peak while tracing; each case in a fresh
    subprocess) of :func:`mitsar.simulate_scene` (streams histograms to raw) and of
    :func:`mitsar.raw.traced` (keeps the histogram product) as the number of sweeps doubles.
@@ -86,7 +87,8 @@ def integrator_rate(scene: object, sweeps: int, density: float | None) -> dict[s
             "scatterers": a["scatterer_count"],
             "sweeps": hist.sizes["sweep"], "pairs": a["traced_pairs"],
             "candidate_pairs": a["traced_candidate_pairs"],
-            "contributions": a["traced_shadow_rays"], "launches": a["traced_launches"]}
+            "contributions": a["traced_shadow_rays"], "launches": a["traced_launches"],
+            "visibility_rays": a["traced_visibility_rays"]}
 
 
 def _cpu() -> float:
@@ -157,7 +159,8 @@ def main() -> None:
     seconds = rate["seconds"]
     for label, key in (("integrator: scatterer x sweep pairs", "pairs"),
                        ("  left by the chunk-level beam cull", "candidate_pairs"),
-                       ("  contributions (shadow ray + deposit)", "contributions")):
+                       ("  contributions (visibility + deposit)", "contributions"),
+                       ("  shadow rays shared by blocks of sweeps", "visibility_rays")):
         print(f"{label:46s} {rate[key]:12,d} {seconds:8.3f} {rate[key] / seconds / 1e6:8.1f}")
     print(f"first call (scatterer sampling, upload, compile): {rate['cold_seconds']:.2f} s; "
           f"contributions/s : ray_test rays/s = "

@@ -7,10 +7,14 @@ Per chunk of sweeps (docs/design.md §5.4, docs/integrator.md):
 2. :func:`cull` — over candidate x sweep lanes, the exact beam, 2D-slab and bin-grid test in
    float32, compacted with ``dr.compress``: only survivors pay for shadow rays;
 3. :func:`trace` — per surviving lane: geometry in float64, two-way pattern, σ⁰ from the
-   material's monostatic table, a shadow ray, the radar-equation amplitude and the
+   material's monostatic table, visibility, the radar-equation amplitude and the
    :func:`~.deposit.deposit`.
 
-:func:`backscatter_chunk` runs the three for one chunk of sweeps.
+Visibility is a shadow ray per lane, or, with visibility reuse (docs/integrator.md
+§"Visibility reuse"), the answer of :func:`probe`, which casts the shadow rays of the first and
+last sweep of each block of sweeps per candidate: lanes whose block ends agree take that answer,
+the others cast their own ray. :func:`backscatter_chunk` runs the kernels for one chunk of
+sweeps.
 """
 
 from __future__ import annotations
@@ -19,10 +23,12 @@ from typing import Any
 
 import drjit as dr
 import mitsuba as mi
+import numpy as np
 from numpy.typing import NDArray
 
 from mitsar.model.doublelobe import TABLE_SIZE, interp_theta_table
 from mitsar.model.geometry.antenna import field_pattern
+from mitsar.model.geometry.visibility import sight_line_motion, visibility_blocks
 from mitsar.model.radar import Radar
 from mitsar.plugins.integrators.radar.config import RadarIntegratorConfig
 from mitsar.plugins.integrators.radar.constants import (
@@ -31,6 +37,7 @@ from mitsar.plugins.integrators.radar.constants import (
     backscatter_sweep_arrays,
     chunk_bounds,
     lane_pairs,
+    visibility_block_arrays,
 )
 from mitsar.plugins.integrators.radar.deposit import deposit
 from mitsar.plugins.integrators.radar.setup import TraceSetup
@@ -38,6 +45,16 @@ from mitsar.plugins.ops import DRJIT_OPS
 
 SURFACE_OFFSET = 2e-5
 """Offset of a shadow ray's end above the surface, relative to ``1 + max|p|`` [-]."""
+
+
+def _moved(p: Any, sc: dict, name: str, m: Any, t: Any) -> Any:
+    """A scatterer coordinate at time ``t``: ``p + v t`` with ``v = sc[name][m]`` (``m`` an
+    index, or a gather function of a name); ``p`` itself in a static set (``sc["static"]``: a
+    kernel variant without the velocity gathers, compiled once)."""
+    if sc["static"]:
+        return p
+    v = m(name) if callable(m) else dr.gather(type(p), sc[name], m)
+    return p + v * t
 
 
 def _frame_sines(d: Any, get: Any, prefix: str) -> tuple[Any, Any, Any]:
@@ -57,7 +74,7 @@ def candidates(sc: dict, k: Constants, count: int) -> Any:
     f32 = mi.Float
     m = dr.arange(mi.UInt32, count)
     t = k.f32("mid_time")
-    o = mi.Vector3f(*(dr.gather(f32, sc[f"p{a}32"], m) + dr.gather(f32, sc[f"v{a}32"], m) * t
+    o = mi.Vector3f(*(_moved(dr.gather(f32, sc[f"p{a}32"], m), sc, f"v{a}32", m, t)
                       - k.f32(f"mid_p{a}") for a in "xyz"))
     r = dr.norm(o)
     u_az, u_el, cos_b = _frame_sines(o / r, k.f32, "mid_f")
@@ -82,31 +99,123 @@ def cull(sc: dict, sw: dict, k: Constants, found: Any, lanes: int) -> Any:
     def gm(name: str) -> Any:
         return dr.gather(f32, sc[name], m)
 
-    t = gs("time32")
-    o = mi.Vector3f(*(gm(f"p{a}32") + gm(f"v{a}32") * t - gs(f"p{a}32") for a in "xyz"))
+    return dr.compress(_in_beam(k, sc, gs, gm, sw["planar"]))
+
+
+def _in_beam(k: Constants, sc: dict, gs: Any, gm: Any, planar: bool) -> Any:
+    """The exact beam, 2D-slab (``planar``) and bin-grid test of (sweep, scatterer) lanes in
+    float32; ``gs(name)`` / ``gm(name)`` gather a Float32 sweep / scatterer array."""
+    t = None if sc["static"] else gs("time32")
+    o = mi.Vector3f(*(_moved(gm(f"p{a}32"), sc, f"v{a}32", gm, t) - gs(f"p{a}32")
+                      for a in "xyz"))
     r = dr.norm(o)
     u_az, u_el, cos_b = _frame_sines(o / r, gs, "f")
     slack = 2.0 * k.f32("inv_step")  # float32 range error << 2 bins
     x = (r - k.f32("first_range")) * k.f32("inv_step")
-    # 2D mode: only the slab |(q - a).n| <= slab_half around the plane (3D: n = 0, half = inf).
-    off_plane = dr.abs(o.x * gs("n2x") + o.y * gs("n2y") + o.z * gs("n2z"))
     active = ((cos_b > 0.0) & (dr.abs(u_az) < k.f32("cull_az"))
-              & (off_plane <= k.f32("slab_half"))
-              & (dr.abs(u_el) < k.f32("cull_el")) & (r > 0.0)
-              & (x > -slack - k.f32("doppler_bins")) & (x < k.f32("last_lower") + slack
-                                                          + k.f32("doppler_bins")))
-    return dr.compress(active)
+              & (dr.abs(u_el) < k.f32("cull_el")) & (r > 0.0))
+    if planar:  # 2D mode: only the slab |(q - a).n| <= slab_half around the plane
+        active &= dr.abs(o.x * gs("n2x") + o.y * gs("n2y") + o.z * gs("n2z")) \
+            <= k.f32("slab_half")
+    return (active
+            & (x > -slack - k.f32("doppler_bins")) & (x < k.f32("last_lower") + slack
+                                                        + k.f32("doppler_bins")))
+
+
+def _lane_geometry(sc: dict, sw: dict, s: Any, m: Any) -> tuple[list, list, Any, Any, Any]:
+    """Mid-sweep geometry of (sweep ``s``, scatterer ``m``) lanes in float64: scatterer ``q``
+    (moving with its velocity), antenna ``a``, range ``r``, ``1/r`` and the unit direction ``d``
+    (float32), antenna -> scatterer."""
+    f64, f32 = mi.Float64, mi.Float
+    t = None if sc["static"] else dr.gather(f64, sw["time"], s)
+    q = [_moved(dr.gather(f64, sc[f"p{a}"], m), sc, f"v{a}", m, t) for a in "xyz"]
+    a = [dr.gather(f64, sw[f"p{a}"], s) for a in "xyz"]
+    o = [qi - ai for qi, ai in zip(q, a, strict=True)]
+    r = dr.sqrt(o[0] * o[0] + o[1] * o[1] + o[2] * o[2])
+    inv_r = 1.0 / r
+    d = mi.Vector3f(*(f32(oi * inv_r) for oi in o))
+    return q, a, r, inv_r, d
+
+
+def _shadow_ray(sc: dict, m: Any, q: list, a: list, d: Any) -> tuple[Any, Any]:
+    """The shadow segment antenna -> point just above the scatterer's surface on the antenna's
+    side (docs/integrator.md, "Shadow rays"), and the scatterer's normal."""
+    f32 = mi.Float
+    n = mi.Vector3f(*(dr.gather(f32, sc[f"n{a}"], m) for a in "xyz"))
+    q32 = mi.Point3f(*(f32(qi) for qi in q))
+    a32 = mi.Point3f(*(f32(ai) for ai in a))
+    side = dr.select(dr.dot(n, d) > 0.0, -1.0, 1.0)
+    eps = SURFACE_OFFSET * (1.0 + dr.max(dr.abs(q32)))
+    seg = (q32 + n * (side * eps)) - a32
+    dist = dr.norm(seg)
+    ray = mi.Ray3f(a32, seg / dist)
+    ray.maxt = dist * (1.0 - 1e-6) - dr.gather(f32, sc["stop"], m)
+    return ray, n
+
+
+def _visible(scene: Any, sc: dict, sw: dict, s: Any, m: Any, active: Any) -> Any:
+    """Shadow test of (sweep ``s``, scatterer ``m``) lanes: True where the segment is free."""
+    q, a, _, _, d = _lane_geometry(sc, sw, s, m)
+    ray, _ = _shadow_ray(sc, m, q, a, d)
+    active = active & (ray.maxt > 0.0)
+    return active & ~scene.ray_test(ray, active)
+
+
+def probe(scene: Any, sc: dict, sw: dict, k: Constants, found: Any, width: int,
+          blocks: int) -> Any:
+    """Visibility of each (candidate, block) pair at its block's first and last sweep.
+
+    Lanes are the ``width`` candidates ``first ..`` of the launch times the ``blocks`` blocks of
+    the chunk, block-fastest. Returns the :func:`_block_visibility` code of each pair, read by
+    :func:`trace` at ``local * blocks + block`` (docs/integrator.md §"Visibility reuse").
+    """
+    u32 = mi.UInt32
+    idx = dr.arange(u32, width * blocks)
+    local = idx // k["blocks"]
+    block = idx - local * k["blocks"]
+    m = dr.gather(u32, found, local + k["first"])
+    return _block_visibility(scene, sc, sw, m, dr.gather(u32, sw["block_first"], block),
+                             dr.gather(u32, sw["block_last"], block))
 
 
 def trace(scene: Any, sc: dict, sw: dict, k: Constants, found: Any, lanes: Any, re: Any,
-          im: Any) -> None:
+          im: Any, visibility: Any = None) -> None:
     """Trace the culled lanes ``lanes`` and deposit them into ``re``/``im`` (order 0).
 
     Everything variable is in ``sc`` (scatterer arrays), ``sw`` (sweep arrays of the chunk) and
     ``k`` (packed constants), so the traced kernel is the same for every launch.
+    ``visibility`` (optional) holds the :func:`probe` codes of the launch: lanes of pairs seen
+    (hidden) at both ends of their block are taken as seen (hidden) without a ray, the others
+    cast their own; without it every lane casts its own shadow ray.
+    """
+    s, m = lane_pairs(lanes, k, found)
+    code = None
+    if visibility is not None:
+        local = lanes // k["sweeps"]
+        code = dr.gather(mi.UInt32, visibility,
+                         local * k["blocks"] + dr.gather(mi.UInt32, sw["block_of"], s))
+    _contribute(scene, sc, sw, k, s, m, mi.Bool(True), code, re, im)
+
+
+def _block_visibility(scene: Any, sc: dict, sw: dict, m: Any, s0: Any, s1: Any) -> Any:
+    """Visibility code of scatterers ``m`` over blocks of sweeps ``s0 .. s1``: the number of
+    the two ends (first and last sweep) that see it (0, 1 or 2; one ray if ``s0 == s1``)."""
+    u32 = mi.UInt32
+    first = _visible(scene, sc, sw, s0, m, mi.Bool(True))
+    single = s0 == s1
+    last = dr.select(single, first, _visible(scene, sc, sw, s1, m, ~single))
+    return u32(dr.select(first, 1, 0)) + u32(dr.select(last, 1, 0))
+
+
+def _contribute(scene: Any, sc: dict, sw: dict, k: Constants, s: Any, m: Any, active: Any,
+                code: Any, re: Any, im: Any) -> None:
+    """Contribution of (sweep ``s``, scatterer ``m``) lanes, deposited into ``re``/``im``.
+
+    ``code`` (optional) is the visibility of the lane's block (:func:`_block_visibility`):
+    2 / 0 take the lane as seen / hidden without a ray, 1 casts its own; None: every lane casts
+    its own shadow ray.
     """
     f64, f32, u32 = mi.Float64, mi.Float, mi.UInt32
-    s, m = lane_pairs(lanes, k, found)
 
     def gs(name: str, kind: type = f64) -> Any:
         return dr.gather(kind, sw[name], s)
@@ -115,14 +224,9 @@ def trace(scene: Any, sc: dict, sw: dict, k: Constants, found: Any, lanes: Any, 
         return dr.gather(kind, sc[name], m)
 
     # 1. Geometry at mid-sweep in float64: scatterer (moving with its velocity) and antenna.
-    t = gs("time")
-    q = [gm(f"p{a}") + gm(f"v{a}") * t for a in "xyz"]
-    a = [gs(f"p{a}") for a in "xyz"]
-    o = [qi - ai for qi, ai in zip(q, a, strict=True)]
-    r = dr.sqrt(o[0] * o[0] + o[1] * o[1] + o[2] * o[2])
-    inv_r = 1.0 / r
-    rdot = sum(oi * (gm(f"v{ax}") - gs(f"v{ax}")) for oi, ax in zip(o, "xyz", strict=True)) * inv_r
-    d = mi.Vector3f(*(f32(oi * inv_r) for oi in o))
+    q, a, r, inv_r, d = _lane_geometry(sc, sw, s, m)
+    v_rel = [-gs(f"v{ax}") if sc["static"] else gm(f"v{ax}") - gs(f"v{ax}") for ax in "xyz"]
+    rdot = sum((qi - ai) * vi for qi, ai, vi in zip(q, a, v_rel, strict=True)) * inv_r
 
     # 2. Two-way pattern: the one-way sinc^2 power pattern is the amplitude factor.
     u_az, u_el, _ = _frame_sines(d, lambda name: gs(name, f32), "f")
@@ -130,24 +234,19 @@ def trace(scene: Any, sc: dict, sw: dict, k: Constants, found: Any, lanes: Any, 
                                       DRJIT_OPS))
 
     # 3. sigma0 from the material's monostatic table (point targets: a row of ones).
-    n = mi.Vector3f(gm("nx", f32), gm("ny", f32), gm("nz", f32))
-    n_dot_d = dr.dot(n, d)
-    sigma0 = interp_theta_table(sc["tables"], TABLE_SIZE, dr.abs(n_dot_d), DRJIT_OPS,
+    ray, n = _shadow_ray(sc, m, q, a, d)
+    sigma0 = interp_theta_table(sc["tables"], TABLE_SIZE, dr.abs(dr.dot(n, d)), DRJIT_OPS,
                                 offset=f32(gm("row", u32) * TABLE_SIZE))
     sigma = sigma0 * gm("weight", f32)
-    active = sigma > 0.0
+    active = active & (sigma > 0.0) & (ray.maxt > 0.0)
 
-    # 4. Visibility: segment antenna -> point just above the surface on the antenna's side.
-    q32 = mi.Point3f(*(f32(qi) for qi in q))
-    a32 = mi.Point3f(*(f32(ai) for ai in a))
-    side = dr.select(n_dot_d > 0.0, -1.0, 1.0)
-    eps = SURFACE_OFFSET * (1.0 + dr.max(dr.abs(q32)))
-    seg = (q32 + n * (side * eps)) - a32
-    dist = dr.norm(seg)
-    ray = mi.Ray3f(a32, seg / dist)
-    ray.maxt = dist * (1.0 - 1e-6) - gm("stop", f32)
-    active &= ray.maxt > 0.0
-    active &= ~scene.ray_test(ray, active)
+    # 4. Visibility: segment antenna -> point just above the surface on the antenna's side,
+    #    or the block's shared answer when both of its ends agree.
+    if code is None:
+        active &= ~scene.ray_test(ray, active)
+    else:
+        retest = active & (code == 1)
+        active &= dr.select(retest, ~scene.ray_test(ray, retest), code == 2)
 
     # 5. Amplitude (radar equation, paper eq. 2 with the two-way pattern) and the deposit.
     amp = one_way * dr.sqrt(sigma) * dr.select(k["normalized"] > 0.0, 1.0,
@@ -158,17 +257,32 @@ def trace(scene: Any, sc: dict, sw: dict, k: Constants, found: Any, lanes: Any, 
 def backscatter_chunk(scene: Any, device: dict, geometry: dict, frames: NDArray, radar: Radar,
                       setup: TraceSetup, chosen: NDArray, k: dict, target_speed: float,
                       config: RadarIntegratorConfig, re: Any, im: Any,
-                      statistics: dict[str, int]) -> None:
+                      statistics: dict[str, int], visibility_block: int | None = None
+                      ) -> None:
     """Mechanism 1 for one chunk of sweeps ``chosen`` (deposits into order 0).
 
     ``k`` holds the acquisition's constants (:func:`~.constants.backscatter_constants`); the
     chunk's bounds are added to it. ``statistics`` counts pairs, candidate pairs, shadow rays
-    and launches.
+    (contributions: lanes in the beam and the bin grid), launches, ``visibility_rays`` (rays
+    of the block probes) and ``visibility_split`` (candidate x block pairs whose ends disagree).
+    ``visibility_block`` caps the sweeps that share shadow rays (e.g. the sweeps between two
+    scene changes; default: the chunk); blocks are cut by
+    :func:`~mitsar.model.geometry.visibility.visibility_blocks` at ``config.visibility_feature``.
     """
     count = dr.width(device["weight"])
     sw = backscatter_sweep_arrays(geometry, frames, radar, chosen, setup.plane_normals)
     k.update(chunk_bounds(geometry, frames, radar, chosen, target_speed))
     k["first"], k["sweeps"] = 0, len(chosen)
+    motion = sight_line_motion(geometry["position"][chosen], geometry["slow_time"][chosen],
+                               target_speed)
+    blocks = visibility_blocks(motion, float(config.visibility_feature),
+                               len(chosen) if visibility_block is None
+                               else max(1, int(visibility_block)))
+    reuse = int(blocks[-1]) + 1 < len(chosen)  # else: a ray per sweep, no probe needed
+    if reuse:
+        sw.update(visibility_block_arrays(blocks))
+        block_sizes = np.bincount(blocks)
+    k["blocks"] = int(blocks[-1]) + 1
     found = candidates(device, Constants(k, BACKSCATTER_FLOATS), count)
     width_found = dr.width(found)
     block = max(1, config.chunk_lanes // len(chosen))
@@ -178,9 +292,16 @@ def backscatter_chunk(scene: Any, device: dict, geometry: dict, frames: NDArray,
         width = min(block, width_found - m0)
         k["first"] = m0
         consts = Constants(k, BACKSCATTER_FLOATS)
+        statistics["launches"] += 1
         lanes = cull(device, sw, consts, found, len(chosen) * width)
         statistics["shadow_rays"] += dr.width(lanes)
-        statistics["launches"] += 1
         if dr.width(lanes):
-            trace(scene, device, sw, consts, found, lanes, re, im)
+            visibility = None
+            if reuse:
+                visibility = probe(scene, device, sw, consts, found, width, k["blocks"])
+                dr.eval(visibility)
+                statistics["visibility_rays"] += width * int(np.sum(np.minimum(block_sizes,
+                                                                               2)))
+                statistics["visibility_split"] += int(dr.count(visibility == 1)[0])
+            trace(scene, device, sw, consts, found, lanes, re, im, visibility)
         dr.eval(re, im)

@@ -24,7 +24,8 @@ PLUGIN_NAME = "radar"
 
 PARAMETERS: tuple[str, ...] = ("scatterer_density", "scatterers_per_cell", "max_depth",
                                "chunk_lanes", "seed", "bins_per_cell", "beam_cull", "rays",
-                               "ray_cover", "capture", "ghosts", "plane_normal", "slab_width")
+                               "ray_cover", "capture", "ghosts", "plane_normal", "slab_width",
+                               "visibility_feature")
 """Accepted XML parameters."""
 
 MAX_LANES = 2**26
@@ -51,7 +52,14 @@ HISTOGRAM_CHUNK_ELEMENTS = 2**22
 AZIMUTH_CELL = 0.10
 """Azimuth size of the resolution cell for ``scatterers_per_cell`` [m] (paper Table 1)."""
 
-_FLOATS = ("scatterer_density", "scatterers_per_cell", "beam_cull", "ray_cover", "slab_width")
+DEFAULT_VISIBILITY_FEATURE = 0.03
+"""Default smallest occluder (or gap) width that shadow-ray reuse across sweeps resolves [m]:
+~10 wavelengths at 94 GHz, below the first Fresnel zone radius sqrt(λ d) of an occluder more
+than 0.3 m from the scatterer, where sharp geometric shadows are already an approximation
+(docs/integrator.md §"Visibility reuse")."""
+
+_FLOATS = ("scatterer_density", "scatterers_per_cell", "beam_cull", "ray_cover", "slab_width",
+           "visibility_feature")
 
 
 @dataclass(frozen=True)
@@ -71,6 +79,7 @@ class RadarIntegratorConfig:
     ghosts: bool = False
     plane_normal: tuple[float, float, float] | None = None
     slab_width: float = AZIMUTH_CELL
+    visibility_feature: float = DEFAULT_VISIBILITY_FEATURE
 
     def __post_init__(self) -> None:
         self.validate("radar")
@@ -104,6 +113,11 @@ class RadarIntegratorConfig:
                                      self.plane_normal)
         integer("seed", 0)
         integer("bins_per_cell", 1, 256)
+        checks.finite(where, "visibility_feature", self.visibility_feature,
+                      "a width >= 0 m (0: a shadow ray per sweep)")
+        if not self.visibility_feature >= 0:
+            raise ParameterError(where, "visibility_feature", "a width >= 0 m (0: a shadow ray "
+                                 "per sweep)", self.visibility_feature)
         value = self.beam_cull
         if not checks.is_real(value) or not value > 0:
             raise ParameterError(where, "beam_cull", "a number of beamwidths > 0 (inf: no "

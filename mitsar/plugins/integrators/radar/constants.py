@@ -31,7 +31,7 @@ BACKSCATTER_FLOATS = ("fc", "chirp_rate", "first_range", "inv_step", "last_lower
                       "mid_turn", "mid_time", "slab_half")
 """Float64 constants of the backscatter kernels."""
 
-UINTS = ("sweep_stride", "bins", "first", "sweeps")
+UINTS = ("sweep_stride", "bins", "first", "sweeps", "blocks")
 """UInt32 constants of every kernel."""
 
 MULTIPATH_FLOATS = ("fc", "chirp_rate", "first_range", "inv_step", "last_lower", "beta_az",
@@ -115,6 +115,7 @@ def backscatter_constants(radar: Radar, config: RadarIntegratorConfig, grid: tup
         "bins": bins,
         "first": 0,
         "sweeps": 1,
+        "blocks": 1,
     }
 
 
@@ -126,7 +127,7 @@ def multipath_constants(radar: Radar, config: RadarIntegratorConfig, k: dict,
     out.update(amp_const=multipath_amplitude_constant(radar),
                norm_const=0.5 * math.sqrt(math.pi), dp=rays.dp, dq=rays.dq,
                slab_width=float(config.slab_width), ghost_cell_inv=2.0 / radar.wavelength,
-               first=0, sweeps=1)
+               first=0, sweeps=1, blocks=1)
     return out
 
 
@@ -169,6 +170,31 @@ def backscatter_sweep_arrays(geometry: dict, frames: NDArray, radar: Radar, chos
         _upload(sw, "p" + axis + "32", mi.Float, pos[:, i])
         _upload(sw, "n2" + axis, mi.Float, plane_normals[padded, i])
     _upload_frames(sw, "f", frames[padded])
+    dr.make_opaque(*sw.values())
+    # 3D (no plane normal): a kernel variant without the 2D slab test, compiled once.
+    sw["planar"] = bool(np.any(plane_normals[padded] != 0.0))
+    return sw
+
+
+def visibility_block_arrays(blocks: NDArray) -> dict:
+    """Device arrays of the visibility blocks of a chunk (docs/integrator.md §"Visibility
+    reuse"): ``block_of`` (block of each sweep of the chunk), ``block_first`` and
+    ``block_last`` (first and last sweep of each block, indices into the chunk).
+
+    Parameters
+    ----------
+    blocks : ndarray of int, shape (sweeps,)
+        :func:`mitsar.model.geometry.visibility.visibility_blocks` of the chunk's sweeps.
+    """
+    blocks = np.asarray(blocks, dtype=np.int64)
+    index = np.arange(len(blocks))
+    count = int(blocks[-1]) + 1
+    first = np.searchsorted(blocks, np.arange(count), side="left")
+    last = np.searchsorted(blocks, np.arange(count), side="right") - 1
+    sw: dict = {}
+    _upload(sw, "block_of", mi.UInt32, blocks[_padded(index)].astype(np.uint32))
+    _upload(sw, "block_first", mi.UInt32, _padded(first).astype(np.uint32))
+    _upload(sw, "block_last", mi.UInt32, _padded(last).astype(np.uint32))
     dr.make_opaque(*sw.values())
     return sw
 
@@ -214,6 +240,8 @@ def scatterer_arrays(sc: ScattererSet) -> dict:
         _upload(dev, "stop", mi.Float, sc.stop)
         _upload(dev, "tables", mi.Float, sc.tables.ravel())
         dr.make_opaque(*dev.values())
+        # Static sets (no moving point target or shape) use kernels without velocity gathers.
+        dev["static"] = bool(sc.max_speed() == 0.0)
         sc.device.update(dev)
     return sc.device
 

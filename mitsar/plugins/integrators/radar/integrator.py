@@ -17,6 +17,8 @@ XML (every parameter optional)::
         <boolean name="ghosts"      value="false"/><!-- bistatic scattering at hits >= 2 -->
         <vector  name="plane_normal" x="1" y="0" z="0"/>  <!-- 2D mode (default: 3D) -->
         <float   name="slab_width"  value="0.1"/>  <!-- 2D mode: width of the scatterer slab -->
+        <float   name="visibility_feature" value="0.03"/>  <!-- m: shadow rays shared across
+                                                   sweeps; 0: a ray per sweep -->
     </integrator>
 
 Unknown parameters raise :class:`~mitsar.errors.ParameterError` naming the parameter. Without a
@@ -119,7 +121,7 @@ def _make_class() -> type:
                              sweeps: NDArray | None = None, config: RadarIntegratorConfig
                              | None = None, rvp: bool = True, normalized: bool = False,
                              progress: bool = False, setup: TraceSetup | None = None,
-                             backscatter: bool = True
+                             backscatter: bool = True, visibility_block: int | None = None
                              ) -> Iterator[tuple[NDArray, NDArray[np.complex128]]]:
             """Trace sweeps into histograms, one chunk of sweeps at a time.
 
@@ -150,6 +152,12 @@ def _make_class() -> type:
             backscatter : bool
                 Trace mechanism 1 (direct backscatter, order 0). It is monostatic: a bistatic
                 ``setup`` needs ``backscatter=False``.
+            visibility_block : int, optional
+                Largest number of consecutive sweeps that may share shadow rays (default: a
+                chunk; within it blocks are cut where the sight lines move more than
+                ``config.visibility_feature``, docs/integrator.md §"Visibility reuse"). A caller
+                that changes the scene between sweeps passes sweeps of one scene state per call
+                (blocks never span two calls) or caps it here; 1 casts a shadow ray per sweep.
 
             Yields
             ------
@@ -162,7 +170,9 @@ def _make_class() -> type:
             ``self.statistics`` counts, for the last call: ``pairs`` (scatterer x sweep pairs of
             the acquisition), ``candidate_pairs`` (left by the chunk-level beam cull),
             ``shadow_rays`` (in the beam and the bin grid: traced and deposited if visible),
-            kernel ``launches``, and for multipath ``rays`` (ray x sweep lanes), ``segments``
+            kernel ``launches``, ``visibility_rays`` (rays of the visibility probes of sweep
+            blocks), ``visibility_split`` (candidate x block pairs re-tested per sweep), and for
+            multipath ``rays`` (ray x sweep lanes), ``segments``
             (ray segments intersected) and ``captures`` (capture deposits).
             """
             config = self.config if config is None else config
@@ -178,7 +188,8 @@ def _make_class() -> type:
             count = len(scatterers) if backscatter else 0
             multipath = config.max_depth > 1 and setup.rays is not None
             self.statistics = {"pairs": 0, "candidate_pairs": 0, "shadow_rays": 0,
-                               "launches": 0, "rays": 0, "segments": 0, "captures": 0}
+                               "launches": 0, "rays": 0, "segments": 0, "captures": 0,
+                               "visibility_rays": 0, "visibility_split": 0}
             if count == 0 and not multipath:
                 for start in range(0, len(sweeps), 1024):
                     chosen = sweeps[start:start + 1024]
@@ -193,7 +204,7 @@ def _make_class() -> type:
                                       hg.range_step(radar, config.bins_per_cell), orders, rvp,
                                       normalized, max_speed, setup.planar)
             if multipath:
-                table = bounce.shape_table(scene)
+                table = bounce.shape_table(scene, setup.absorbers)
                 ray_dev, ray_ids = _ray_arrays(setup)
                 kmp = multipath_constants(radar, config, k, setup.rays)
             bar = tqdm(total=len(sweeps), disable=not progress, desc="trace", unit="sweep")
@@ -207,7 +218,8 @@ def _make_class() -> type:
                     im = dr.zeros(mi.Float64, max(size, HISTOGRAM_CHUNK_ELEMENTS))
                     if count:
                         backscatter_chunk(scene, device, geometry, frames, radar, setup, chosen,
-                                          k, target_speed, config, re, im, self.statistics)
+                                          k, target_speed, config, re, im, self.statistics,
+                                          visibility_block)
                     if multipath:
                         self._multipath_chunk(scene, table, ray_dev, ray_ids, geometry, frames,
                                               setup, chosen, kmp, config, re, im)
@@ -243,7 +255,7 @@ def _make_class() -> type:
             re = dr.zeros(mi.Float64, config.max_depth * 2)
             im = dr.zeros(mi.Float64, config.max_depth * 2)
             log: list = []
-            bounce.launch(scene, bounce.shape_table(scene), ray_dev, sw,
+            bounce.launch(scene, bounce.shape_table(scene, setup.absorbers), ray_dev, sw,
                           Constants(kmp, MULTIPATH_FLOATS), mi.UInt32(rays), len(rays), re, im,
                           config.max_depth, config.capture, False, setup.planar, log=log)
             return {key: np.stack([entry[key] for entry in log], axis=1) for key in log[0]}
