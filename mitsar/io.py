@@ -7,14 +7,24 @@ complex. Attributes are sanitised first (netCDF attributes hold only numbers, st
 numeric arrays). Files are written to a temporary file in the destination folder and moved into
 place with :func:`os.replace`, so a failed or interrupted write never leaves a partial product,
 and an existing file is only replaced when asked to.
+
+A path ending in ``.zarr`` is a chunked Zarr store instead (a folder; Zarr format 2, whose
+complex and text data types are specified): variables along ``sweep`` are chunked by sweeps,
+the folder is written beside its final name and renamed into place, and :class:`ZarrStream`
+appends a long acquisition chunk by chunk (``append_dim="sweep"``), so that a product larger
+than memory can be written; :func:`load` reads both formats.
 """
 
 from __future__ import annotations
 
+import glob
 import json
 import math
 import os
+import re
+import shutil
 import tempfile
+import time
 from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from pathlib import Path
@@ -28,9 +38,11 @@ from mitsar.errors import MitsarError
 __all__ = [
     "OutputExistsError",
     "ProductFileError",
+    "ZarrStream",
     "atomic_output",
     "atomic_writer",
     "check_writable",
+    "is_zarr",
     "load",
     "sanitize_attrs",
     "save",
@@ -137,7 +149,7 @@ def _sanitized(ds: xr.Dataset) -> xr.Dataset:
 
 # --- atomic output ------------------------------------------------------------------------
 def check_writable(path: str | os.PathLike, overwrite: bool = False) -> Path:
-    """Refuse to replace an existing file unless ``overwrite``.
+    """Refuse to replace an existing file (or ``.zarr`` store) unless ``overwrite``.
 
     Parameters
     ----------
@@ -159,6 +171,9 @@ def check_writable(path: str | os.PathLike, overwrite: bool = False) -> Path:
         If the destination folder does not exist or ``path`` is a folder.
     """
     path = Path(path)
+    if is_zarr(path):
+        _check_store_writable(path, overwrite)
+        return path
     if path.is_dir():
         raise ProductFileError(f"{path}: is a folder, expected a file name")
     if path.exists() and not overwrite:
@@ -192,8 +207,9 @@ def atomic_output(path: str | os.PathLike, overwrite: bool = False) -> Iterator[
         The temporary file to write.
     """
     path = check_writable(path, overwrite)
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=f".tmp{path.suffix}",
-                                    dir=path.parent)
+    remove_stale_temporaries(path)
+    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.{os.getpid()}.",
+                                    suffix=f".tmp{path.suffix}", dir=path.parent)
     os.close(fd)
     tmp = Path(tmp_name)
     try:
@@ -206,6 +222,58 @@ def atomic_output(path: str | os.PathLike, overwrite: bool = False) -> Iterator[
     finally:
         if tmp.exists():
             tmp.unlink()
+
+
+STALE_AGE = 3600.0
+"""Age [s] after which a temporary file without a writer's process id is taken as stale."""
+
+
+def remove_stale_temporaries(path: str | os.PathLike) -> list[Path]:
+    """Remove the temporary files a killed writer left beside ``path`` (docs/reliability.md §5).
+
+    :func:`atomic_output` names its temporary ``.NAME.PID.XXXX.tmpSUFFIX``; one whose process
+    no longer runs is stale (SIGKILL leaves it behind). Older names without a process id are
+    stale after :data:`STALE_AGE` seconds. Files of running writers are left alone.
+
+    Returns
+    -------
+    list of Path
+        The files removed.
+    """
+    path = Path(path)
+    removed = []
+    if not path.parent.is_dir():
+        return removed
+    pattern = re.compile(re.escape(f".{path.name}.") + r"(?:(\d+)\.)?[^/]*"
+                         + re.escape(f".tmp{path.suffix}") + "$")
+    for candidate in path.parent.glob(f".{glob.escape(path.name)}.*.tmp{path.suffix}"):
+        match = pattern.match(candidate.name)
+        if match is None:
+            continue
+        try:
+            if match.group(1) is not None:
+                if _process_alive(int(match.group(1))):
+                    continue
+            elif time.time() - candidate.stat().st_mtime < STALE_AGE:
+                continue
+            candidate.unlink()
+            removed.append(candidate)
+        except OSError:  # gone meanwhile, or not ours to remove
+            continue
+    return removed
+
+
+def _process_alive(pid: int) -> bool:
+    """True if a process ``pid`` exists (signal 0 tests without sending anything)."""
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError, OSError):
+        return True
+    return True
 
 
 def _umask() -> int:
@@ -250,6 +318,10 @@ def save(ds: xr.Dataset, path: str | os.PathLike, overwrite: bool = False) -> Pa
         raise ProductFileError(f"{path}: expected an xarray.Dataset to save, found "
                                f"{type(ds).__name__}")
     clean = _sanitized(ds)
+    if is_zarr(path):
+        with atomic_directory(path, overwrite) as tmp:
+            _write_zarr(clean, tmp)
+        return Path(path)
     return atomic_writer(path, overwrite, lambda tmp: _write_netcdf(clean, tmp))
 
 
@@ -259,7 +331,8 @@ def load(path: str | os.PathLike, product: str | tuple[str, ...] | None = None) 
     Parameters
     ----------
     path : path-like
-        A file written by :func:`save`.
+        A file (``.nc``) or Zarr store (``.zarr``) written by :func:`save` or
+        :class:`ZarrStream`.
     product : str or tuple of str, optional
         Expected product type(s); a file of another type is refused.
 
@@ -274,16 +347,26 @@ def load(path: str | os.PathLike, product: str | tuple[str, ...] | None = None) 
         If the file does not exist, cannot be read as netCDF/HDF5, has no ``product``
         attribute, or is not of the expected product type.
     """
+    if not isinstance(path, str | os.PathLike):
+        raise ProductFileError(f"load: parameter 'path': expected a file path (str or "
+                               f"os.PathLike), found {type(path).__name__} {path!r:.80}")
     path = Path(path)
     if not path.exists():
         raise ProductFileError(f"{path}: no such file")
-    if path.is_dir():
-        raise ProductFileError(f"{path}: is a folder, expected a mitsar product file (.nc)")
+    zarr_store = path.is_dir() and any((path / name).exists() for name in ZARR_MARKERS)
+    if path.is_dir() and not zarr_store:
+        raise ProductFileError(f"{path}: is a folder, expected a mitsar product file (.nc) "
+                               "or Zarr store (.zarr)")
     try:
-        with xr.open_dataset(path, engine=ENGINE) as handle:
-            ds = handle.load()
-    except (OSError, ValueError, TypeError) as error:
-        raise ProductFileError(f"{path}: not a readable netCDF4/HDF5 product file "
+        if zarr_store:
+            with xr.open_zarr(path, chunks=None) as handle:
+                ds = handle.load()
+        else:
+            with xr.open_dataset(path, engine=ENGINE) as handle:
+                ds = handle.load()
+    except (OSError, ValueError, TypeError, KeyError) as error:
+        kind = "Zarr" if zarr_store else "netCDF4/HDF5"
+        raise ProductFileError(f"{path}: not a readable {kind} product "
                                f"({type(error).__name__}: {error})") from error
     kind = ds.attrs.get("product")
     if kind is None:
@@ -339,3 +422,162 @@ def atomic_writer(path: str | os.PathLike, overwrite: bool,
     with atomic_output(path, overwrite) as tmp:
         write(tmp)
     return Path(path)
+
+
+# --- Zarr ---------------------------------------------------------------------------------
+ZARR_SUFFIX = ".zarr"
+"""Suffix that selects the Zarr format in :func:`save` and :class:`ZarrStream`."""
+
+ZARR_FORMAT = 2
+"""Zarr format written: 2, whose complex and fixed-length text data types are specified (Zarr 3
+has no text type yet)."""
+
+ZARR_MARKERS = (".zgroup", ".zmetadata", "zarr.json")
+"""Files that make a folder a Zarr store (format 2 or 3)."""
+
+CHUNK_BYTES = 8 * 2**20
+"""Target size of one chunk of a variable along ``sweep`` [bytes]."""
+
+
+def is_zarr(path: str | os.PathLike) -> bool:
+    """True when ``path`` names a Zarr store (suffix ``.zarr``)."""
+    return Path(path).suffix.lower() == ZARR_SUFFIX
+
+
+def _zarr_encoding(ds: xr.Dataset, chunk_sweeps: int | None = None) -> dict[str, dict]:
+    """Chunks of every variable along ``sweep``: ``chunk_sweeps`` sweeps, or as many as make
+    :data:`CHUNK_BYTES` for the largest variable; other dimensions whole."""
+    along = [name for name in ds.variables if "sweep" in ds[name].dims]
+    if not along:
+        return {}
+    if chunk_sweeps is None:
+        per_sweep = max(ds[name].dtype.itemsize * ds[name].size // max(ds.sizes["sweep"], 1)
+                        for name in along)
+        chunk_sweeps = max(1, CHUNK_BYTES // max(per_sweep, 1))
+    encoding = {}
+    for name in along:
+        chunks = tuple(min(chunk_sweeps, n) if d == "sweep" else n
+                       for d, n in zip(ds[name].dims, ds[name].shape, strict=True))
+        encoding[name] = {"chunks": tuple(max(c, 1) for c in chunks)}
+    return encoding
+
+
+def _write_zarr(ds: xr.Dataset, path: Path, chunk_sweeps: int | None = None) -> None:
+    """Write a sanitised product as a new Zarr store (the step tests can replace)."""
+    ds.to_zarr(path, mode="w", zarr_format=ZARR_FORMAT, consolidated=True,
+               encoding=_zarr_encoding(ds, chunk_sweeps))
+
+
+def _check_store_writable(path: Path, overwrite: bool) -> None:
+    """Refuse to replace an existing store unless ``overwrite`` (or a folder that is none)."""
+    if path.exists() and not overwrite:
+        raise OutputExistsError(f"{path}: exists; pass overwrite=True (--overwrite on the "
+                                "command line) to replace it")
+    if path.exists() and path.is_dir() and not any((path / m).exists() for m in ZARR_MARKERS):
+        raise ProductFileError(f"{path}: is a folder that is not a Zarr store; not replaced "
+                               "(choose another name)")
+    parent = path.parent if str(path.parent) else Path(".")
+    if not parent.is_dir():
+        raise ProductFileError(f"{path}: folder {parent} does not exist")
+
+
+@contextmanager
+def atomic_directory(path: str | os.PathLike, overwrite: bool = False) -> Iterator[Path]:
+    """Like :func:`atomic_output` for a folder (a Zarr store): a temporary folder beside
+    ``path`` that replaces it on success and is removed if the body raises.
+
+    Replacing an existing store renames it aside first, then removes it, so that ``path``
+    always holds a whole store (the old one or the new one).
+    """
+    path = Path(path)
+    _check_store_writable(path, overwrite)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.{os.getpid()}.",
+                                suffix=f".tmp{path.suffix}", dir=path.parent))
+    try:
+        yield tmp
+        if path.exists():
+            if not overwrite:  # appeared while we were writing
+                raise OutputExistsError(f"{path}: appeared during the write; pass "
+                                        "overwrite=True (--overwrite) to replace it")
+            old = tmp.with_name(tmp.name + ".old")
+            os.replace(path, old)
+            os.replace(tmp, path)
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            shutil.rmtree(tmp, ignore_errors=True)
+
+
+class ZarrStream:
+    """Write a product to a Zarr store chunk by chunk along ``sweep`` (context manager).
+
+    The first :meth:`append` creates the store with every variable (chunked by
+    ``chunk_sweeps`` sweeps) and the first chunk's attributes; later ones append the variables
+    that have a ``sweep`` dimension (``append_dim="sweep"``). Memory holds one chunk. The store
+    is written beside ``path`` and moved into place when the ``with`` block ends without an
+    error (then ``attrs`` given to :meth:`finish` are set); on an error nothing is left.
+
+    Examples
+    --------
+    >>> with ZarrStream("raw.zarr") as out:  # doctest: +SKIP
+    ...     for chunk in mitsar.raw.analytic.stream_point_targets(...):
+    ...         out.append(chunk)
+    """
+
+    def __init__(self, path: str | os.PathLike, overwrite: bool = False,
+                 chunk_sweeps: int | None = None) -> None:
+        self.path = Path(path)
+        if not is_zarr(self.path):
+            raise ProductFileError(f"{self.path}: a streamed product is a Zarr store: name it "
+                                   f"with the suffix {ZARR_SUFFIX}")
+        self.overwrite, self.chunk_sweeps = overwrite, chunk_sweeps
+        self.sweeps = 0
+        self._attrs: dict[str, Any] = {}
+        self._context: Any = None
+        self._tmp: Path | None = None
+
+    def __enter__(self) -> ZarrStream:
+        self._context = atomic_directory(self.path, self.overwrite)
+        self._tmp = self._context.__enter__()
+        return self
+
+    def append(self, chunk: xr.Dataset) -> None:
+        """Write the next sweeps (a product whose ``sweep`` coordinate continues the last)."""
+        if self._tmp is None:
+            raise ProductFileError(f"{self.path}: ZarrStream.append outside its 'with' block")
+        clean = _sanitized(chunk)
+        if self.sweeps == 0:
+            _write_zarr(clean, self._tmp, self.chunk_sweeps or clean.sizes.get("sweep"))
+        else:
+            along = [n for n in clean.data_vars if "sweep" in clean[n].dims]
+            extra = [n for n in clean.coords if "sweep" not in clean[n].dims]
+            clean[along].drop_vars(extra).to_zarr(self._tmp, append_dim="sweep",
+                                                  consolidated=True)
+        self.sweeps += int(clean.sizes.get("sweep", 0))
+
+    def finish(self, attrs: Mapping[str, Any]) -> None:
+        """Set (or change) attributes of the product, e.g. totals known at the end."""
+        self._attrs.update(attrs)
+
+    def __exit__(self, kind: Any, error: Any, trace: Any) -> bool:
+        if kind is None:
+            try:
+                self._close()
+            except BaseException as failure:  # the temporary store is removed, then raised
+                self._context.__exit__(type(failure), failure, failure.__traceback__)
+                raise
+        return bool(self._context.__exit__(kind, error, trace))
+
+    def _close(self) -> None:
+        """Check that something was written and set the final attributes."""
+        if self.sweeps == 0:
+            raise ProductFileError(f"{self.path}: nothing was appended")
+        if self._attrs:
+            # lazy: zarr is a heavy optional reader only needed once a store is written
+            import zarr
+
+            group = zarr.open_group(self._tmp, mode="r+")
+            group.attrs.update(sanitize_attrs(self._attrs))
+            zarr.consolidate_metadata(self._tmp)

@@ -248,7 +248,8 @@ def test_montecarlo_command_resumes_and_plots(tmp_path, capsys):
     experiment = tmp_path / "tiny_background.toml"
     experiment.write_text(TINY_BACKGROUND)
     out = tmp_path / "mc"
-    arguments = ["montecarlo", str(experiment), "-o", str(out), "-n", "2", "-a", "bpa", "-q"]
+    arguments = ["montecarlo", str(experiment), "-o", str(out), "-n", "2", "-a", "bpa", "-q",
+                 "--scheduler", "inline"]  # in this process: no Dask cluster to start
     assert main(arguments + ["--cuts", "1"]) == 0
     assert "(2 realisations, seeds 3..4)" in capsys.readouterr().out
     assert (out / "summary.nc").exists() and (out / "cuts_bpa.png").stat().st_size > 0

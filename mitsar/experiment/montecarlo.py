@@ -13,6 +13,11 @@ Resumable runs: with ``out_dir`` every finished realisation is appended to
 fingerprint of the configuration. A new run with ``resume=True`` skips the seeds already there
 and refuses a file made with another configuration. The summary is written to
 ``out_dir/summary.nc`` and ``out_dir/summary.txt``.
+
+The realisations are the tasks of a campaign (:mod:`mitsar.experiment.campaign`): in this process
+by default, or on a Dask cluster with ``scheduler`` (``mitsar montecarlo`` uses a local cluster
+unless told otherwise). A realisation that raises is recorded with its error (``errors`` in the
+record, its metrics left out of the statistics) and is tried again by the next resumed run.
 """
 
 from __future__ import annotations
@@ -35,6 +40,7 @@ from tqdm.auto import tqdm
 from mitsar.checks import integer
 from mitsar.errors import MitsarError, ParameterError
 from mitsar.experiment import runs
+from mitsar.experiment.campaign import INLINE, Task, run_tasks
 from mitsar.experiment.loading import load_experiment
 from mitsar.experiment.options import Experiment
 from mitsar.experiment.paper import paper_table
@@ -63,6 +69,82 @@ def _write_atomic(path: Path, data: dict) -> None:
     os.replace(tmp, path)
 
 
+class _Record:
+    """The campaign record store of a Monte Carlo run: ``montecarlo.json`` (module docstring),
+    or memory only without an output folder."""
+
+    def __init__(self, path: Path | None, fingerprint: str, config: dict,
+                 records: list[dict], errors: dict[str, str]) -> None:
+        self.path, self.fingerprint, self.config = path, fingerprint, config
+        self.records, self.errors = records, errors
+
+    def finished(self) -> dict[str, dict]:
+        return {_key(r["seed"]): {"status": "ok", "result": r} for r in self.records}
+
+    def add(self, task: Task, record: dict) -> None:
+        seed = task.args[1]
+        if record["status"] == "ok":
+            self.records.append(record["result"])
+            self.errors.pop(str(seed), None)
+        else:
+            self.errors[str(seed)] = record["error"]
+        if self.path is not None:
+            _write_atomic(self.path, {"fingerprint": self.fingerprint, "config": self.config,
+                                      "records": self.records, "errors": self.errors})
+
+
+def _key(seed: int) -> str:
+    """Campaign key of the realisation with ``seed``."""
+    return f"seed-{seed}"
+
+
+def measure_realisation(experiment: Experiment, seed: int, algorithms: Sequence[str],
+                        target: Sequence[float], islr_extent: str | float) -> dict[str, Any]:
+    """Simulate one realisation (``seed``), focus it with each algorithm and measure the target.
+
+    One whole run of a campaign (Monte Carlo and sweeps alike).
+
+    Parameters
+    ----------
+    experiment : Experiment
+        The experiment; its ``[simulation] seed`` is replaced by ``seed``.
+    seed : int
+        Seed of the realisation (background draw, noise).
+    algorithms : sequence of str
+        Focusing algorithms, each with the experiment's ``[focus]`` options.
+    target : sequence of 3 floats
+        World position of the measured target [m].
+    islr_extent : str or float
+        ISLR sidelobe extent.
+
+    Returns
+    -------
+    dict
+        ``seed``; ``metrics`` {algorithm: {"range_irw_cells", ..., "azimuth_islr_db",
+        "peak_offset_m", "peak_db"}}; ``failures`` {algorithm: reason} for responses that could
+        not be measured.
+    """
+    trial = dataclasses.replace(
+        experiment, simulation=dataclasses.replace(experiment.simulation, seed=int(seed)))
+    raw = runs.run_simulation(trial)
+    entry: dict[str, Any] = {"seed": int(seed), "metrics": {}, "failures": {}}
+    for algorithm in algorithms:
+        options = dataclasses.replace(experiment.focus, algorithm=algorithm)
+        image = runs.run_focus(raw, options)
+        try:
+            entry["metrics"][algorithm] = _measure(image, target, islr_extent)
+        except ParameterError:
+            # The target outside (or at the edge of) the image, or a bad extent: the same for
+            # every realisation, so the campaign stops here rather than "measure" N failures.
+            raise
+        except (ValueError, MitsarError) as error:
+            # A realisation whose response cannot be measured (e.g. clutter filling a
+            # first null) is recorded as such, not retried forever on resume, and said.
+            entry["failures"][algorithm] = str(error)
+            tqdm.write(f"seed {seed} {algorithm}: not measurable: {error}")
+    return entry
+
+
 def _measure(image: xr.Dataset, target: Sequence[float], islr_extent: str | float) -> dict:
     metrics = measure_impulse_response(image, equivalent_position(image, target),
                                        islr_extent=islr_extent)
@@ -76,7 +158,8 @@ def run(experiment: Any, realisations: int = 10,
         algorithms: Sequence[str] = ("bpa", "rda", "wda", "fsa"), *,
         first_seed: int | None = None, out_dir: str | os.PathLike | None = None,
         resume: bool = True, progress: bool = True, target: Sequence[float] | None = None,
-        islr_extent: str | float | None = None) -> xr.Dataset:
+        islr_extent: str | float | None = None, scheduler: str | None = INLINE,
+        workers: int | None = None, client: Any = None) -> xr.Dataset:
     """Monte Carlo over background realisations of an experiment (module docstring).
 
     Parameters
@@ -102,6 +185,14 @@ def run(experiment: Any, realisations: int = 10,
         World position of the measured target (default: the experiment's).
     islr_extent : str or float, optional
         ISLR sidelobe extent (default: the experiment's, i.e. "paper" = +-5 cells).
+    scheduler : str, optional
+        Where the realisations run (:func:`mitsar.experiment.campaign.dask_client`): "inline"
+        (default, this process), None (``$MITSAR_DASK_SCHEDULER``, else a local cluster),
+        "local[:N]" or a Dask scheduler address. The numbers do not depend on it.
+    workers : int, optional
+        Workers of a local cluster (default: one per CPU core).
+    client : distributed.Client, optional
+        A Dask client to run on (overrides ``scheduler``).
 
     Returns
     -------
@@ -134,6 +225,7 @@ def run(experiment: Any, realisations: int = 10,
     fingerprint = _fingerprint({k: v for k, v in config.items() if k != "mitsar_version"})
 
     records: list[dict] = []
+    errors: dict[str, str] = {}
     record_path = None
     if out_dir is not None:
         folder = Path(out_dir)
@@ -150,32 +242,18 @@ def run(experiment: Any, realisations: int = 10,
                                   "(experiment, algorithms, seeds, target or ISLR extent); "
                                   "use another out_dir or resume=False to start afresh")
             records = list(stored.get("records", []))
-    done = {r["seed"] for r in records}
+            errors = dict(stored.get("errors", {}))
+    store = _Record(record_path, fingerprint, config, records, errors)
     seeds = [first_seed + i for i in range(realisations)]
-    todo = [s for s in seeds if s not in done]
-    bar = tqdm(total=len(seeds), initial=len(seeds) - len(todo), disable=not progress,
-               desc="montecarlo", unit="realisation")
-    for seed in todo:
-        trial = dataclasses.replace(
-            experiment, simulation=dataclasses.replace(experiment.simulation, seed=seed))
-        raw = runs.run_simulation(trial)
-        entry: dict[str, Any] = {"seed": seed, "metrics": {}, "failures": {}}
-        for algorithm in algorithms:
-            options = dataclasses.replace(experiment.focus, algorithm=algorithm)
-            image = runs.run_focus(raw, options)
-            try:
-                entry["metrics"][algorithm] = _measure(image, target, islr_extent)
-            except (ValueError, MitsarError) as error:
-                # A realisation whose response cannot be measured (e.g. clutter filling a
-                # first null) is recorded as such, not retried forever on resume, and said.
-                entry["failures"][algorithm] = str(error)
-                tqdm.write(f"montecarlo: seed {seed} {algorithm}: not measurable: {error}")
-        records.append(entry)
-        if record_path is not None:
-            _write_atomic(record_path, {"fingerprint": fingerprint, "config": config,
-                                        "records": records})
-        bar.update(1)
-    bar.close()
+    tasks = [Task(_key(seed), (experiment, seed, algorithms, target, islr_extent))
+             for seed in seeds]
+    run_tasks(measure_realisation, tasks, store, scheduler=scheduler, workers=workers,
+              client=client, progress=progress, desc="montecarlo")
+    records = [r for r in store.records if r["seed"] in set(seeds)]
+    for seed in seeds:
+        if str(seed) in store.errors and seed not in {r["seed"] for r in records}:
+            records.append({"seed": seed, "metrics": {}, "failures": {
+                algorithm: f"run failed: {store.errors[str(seed)]}" for algorithm in algorithms}})
     by_seed = {r["seed"]: r for r in records}
     summary = summarise([by_seed[s] for s in seeds], algorithms)
     failures = {f"{seed} {algorithm}": reason for seed in seeds

@@ -1,0 +1,329 @@
+"""Parameter sweeps: the Cartesian product of variations of an experiment, one tidy table.
+
+``--vary KEY=a:b:step`` (inclusive arithmetic range) or ``--vary KEY=v1,v2,...`` (TOML values)
+over any experiment key (the same dotted keys as ``--set``,
+:func:`mitsar.experiment.loading.apply_overrides`). Every point of the product of the variations
+is an experiment; each is simulated ``realisations`` times, focused with each algorithm and
+measured (IRW, PSLR, ISLR in range and azimuth; :func:`mitsar.experiment.montecarlo.
+measure_realisation`), as the tasks of a campaign (:mod:`mitsar.experiment.campaign`, on Dask).
+Realisation r of point i uses the seed :func:`~mitsar.experiment.campaign.task_seed`
+(campaign seed, i, r), recorded in the table.
+
+The table is an :class:`xarray.Dataset` with one dimension per varied key (named by the key),
+then ``realisation`` and ``algorithm``; it is written as ``sweep.nc`` and, one row per run and
+algorithm, ``sweep.csv``, with one figure per metric in ``figures/`` (docs/experiments.md
+§Campaigns).
+"""
+
+from __future__ import annotations
+
+import copy
+import itertools
+import json
+import math
+import os
+import tomllib
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import matplotlib.pyplot as plt
+import numpy as np
+import xarray as xr
+
+from mitsar.checks import integer
+from mitsar.errors import ParameterError
+from mitsar.experiment.campaign import PointFolder, Task, fingerprint, run_tasks, task_seed
+from mitsar.experiment.loading import apply_overrides, experiment_from_dict, read_toml
+from mitsar.experiment.montecarlo import DIRECTIONS, METRICS, measure_realisation
+from mitsar.focus.dispatch import ALGORITHMS
+from mitsar.io import atomic_writer, save
+from mitsar.plots.products import save_figure
+from mitsar.version import __version__
+
+__all__ = ["Variation", "parse_variation", "run_sweep", "sweep_points", "sweep_table"]
+
+TABLE_FILE = "sweep.nc"
+CSV_FILE = "sweep.csv"
+FIGURES_FOLDER = "figures"
+QUANTITIES = tuple(f"{d}_{m}" for d in DIRECTIONS for m in METRICS) + ("peak_offset_m",
+                                                                         "peak_db")
+"""Measured quantities, one table variable each (dims: varied keys, realisation, algorithm)."""
+
+MAX_POINTS = 100_000
+"""Largest sweep accepted (points x realisations)."""
+
+
+@dataclass(frozen=True)
+class Variation:
+    """One varied experiment key and its values.
+
+    Attributes
+    ----------
+    key : str
+        Dotted experiment key (``look.off_nadir_deg``).
+    values : tuple
+        Values in order (numbers, strings, booleans or lists, as TOML gives them).
+    """
+
+    key: str
+    values: tuple
+
+
+def _toml_value(text: str) -> Any:
+    """A TOML value, or the text itself when it is not one (as ``--set`` reads values)."""
+    try:
+        return tomllib.loads(f"value = {text.strip()}")["value"]
+    except tomllib.TOMLDecodeError:
+        return text.strip()
+
+
+def parse_variation(text: str) -> Variation:
+    """Read ``KEY=a:b:step`` or ``KEY=v1,v2,...`` (the CLI's ``--vary``).
+
+    ``a:b:step`` is the arithmetic range a, a + step, ... up to b inclusive (within 1e-9 of a
+    step), e.g. ``40:70:5`` gives 40, 45, ..., 70; a list holds TOML values, a value that is not
+    one being taken as text (``focus.algorithm=bpa,wda``).
+
+    Raises
+    ------
+    ParameterError
+        Naming the key: no ``=``, an empty key or value, a range with a step of the wrong sign
+        or zero, or with more than :data:`MAX_POINTS` values.
+    """
+    key, sep, spec = text.partition("=")
+    key = key.strip()
+    if not sep or not key or not all(p.strip() for p in key.split(".")) or not spec.strip():
+        raise ParameterError("--vary", text, "KEY=START:STOP:STEP or KEY=V1,V2,... with a "
+                             "dotted experiment key, e.g. look.off_nadir_deg=40:70:5", text)
+    parts = spec.split(":")
+    if len(parts) == 3 and "," not in spec:
+        numbers = [_toml_value(p) for p in parts]
+        if not all(isinstance(n, int | float) and not isinstance(n, bool) for n in numbers):
+            raise ParameterError("--vary", key, "START:STOP:STEP of numbers", spec)
+        start, stop, step = numbers
+        if step == 0 or (stop - start) * step < 0:
+            raise ParameterError("--vary", key, f"a step that leads from {start} to {stop} "
+                                 "(non-zero, same sign as STOP - START)", step)
+        count = int(math.floor((stop - start) / step + 1e-9)) + 1
+        if count > MAX_POINTS:
+            raise ParameterError("--vary", key, f"at most {MAX_POINTS} values", count)
+        exact = all(isinstance(n, int) for n in numbers)
+        values = tuple(start + i * step if exact else float(round(start + i * step, 12))
+                       for i in range(count))
+        return Variation(key, values)
+    values = tuple(_toml_value(v) for v in spec.split(","))
+    if any(v == "" for v in values):
+        raise ParameterError("--vary", key, "a comma-separated list without empty values", spec)
+    return Variation(key, values)
+
+
+def _override(key: str, value: Any) -> str:
+    """``key=value`` with the value written as TOML (read back by ``apply_overrides``)."""
+    if isinstance(value, bool):
+        text = "true" if value else "false"
+    elif isinstance(value, str | list):
+        text = json.dumps(value)
+    else:
+        text = repr(value)
+    return f"{key}={text}"
+
+
+def sweep_points(variations: Sequence[Variation]) -> list[dict[str, Any]]:
+    """The Cartesian product of the variations, first key slowest: [{key: value, ...}, ...]."""
+    keys = [v.key for v in variations]
+    if len(set(keys)) != len(keys):
+        raise ParameterError("--vary", "keys", "each key varied once", keys)
+    return [dict(zip(keys, combo, strict=True))
+            for combo in itertools.product(*(v.values for v in variations))]
+
+
+def _sweep_run(document: dict, source: str | None, seed: int, algorithms: Sequence[str]
+               ) -> dict[str, Any]:
+    """One task of a sweep (module level, so Dask sends it by reference): validate the point's
+    experiment and run :func:`measure_realisation` on it."""
+    experiment = experiment_from_dict(document, source=source)
+    return measure_realisation(experiment, seed, algorithms, experiment.metrics_target(),
+                               experiment.metrics.islr_extent)
+
+
+def run_sweep(experiment_path: str | os.PathLike, variations: Sequence[Variation | str],
+              out_dir: str | os.PathLike, *, realisations: int = 1,
+              algorithms: Sequence[str] | None = None, seed: int | None = None,
+              overrides: Sequence[str] = (), scheduler: str | None = None,
+              workers: int | None = None, client: Any = None, restart: bool = False,
+              progress: bool = True, figures: bool = True) -> xr.Dataset:
+    """Run a sweep of an experiment file (module docstring) into ``out_dir``.
+
+    Parameters
+    ----------
+    experiment_path : path-like
+        The TOML experiment.
+    variations : sequence of Variation or str
+        The varied keys (strings as for :func:`parse_variation`).
+    out_dir : path-like
+        Folder of the records (``points/``), the table (``sweep.nc``, ``sweep.csv``) and the
+        figures; created if needed.
+    realisations : int
+        Simulations of every point (seeds :func:`~mitsar.experiment.campaign.task_seed`).
+    algorithms : sequence of str, optional
+        Focusing algorithms (default: the experiment's ``[focus] algorithm``).
+    seed : int, optional
+        Campaign seed (default: the experiment's ``[simulation] seed``).
+    overrides : sequence of str
+        ``--set`` changes applied to every point before the variations.
+    scheduler, workers, client
+        Where the runs go (:func:`mitsar.experiment.campaign.run_tasks`); default
+        ``$MITSAR_DASK_SCHEDULER``, else a local cluster.
+    restart : bool
+        Forget the records of an earlier run in ``out_dir`` (default: finished points are
+        reused, a rerun computes only the missing ones).
+    progress, figures : bool
+        Progress bar; figures of each metric against the varied keys.
+
+    Returns
+    -------
+    xarray.Dataset
+        The table (:func:`sweep_table`).
+
+    Raises
+    ------
+    ParameterError
+        For a bad variation or a point whose experiment is invalid (names the key and value).
+    """
+    path = Path(experiment_path)
+    variations = [v if isinstance(v, Variation) else parse_variation(v) for v in variations]
+    if not variations:
+        raise ParameterError("sweep", "--vary", "at least one KEY=VALUES variation", [])
+    realisations = integer("sweep", "realisations", realisations, 1)
+    base = apply_overrides(read_toml(path), overrides, str(path))
+    nominal = experiment_from_dict(base, source=path)
+    algorithms = [nominal.focus.algorithm] if algorithms is None else list(algorithms)
+    unknown = [a for a in algorithms if a not in ALGORITHMS]
+    if not algorithms or unknown:
+        raise ParameterError("sweep", "algorithms", f"a non-empty list of {ALGORITHMS}",
+                             algorithms)
+    seed = nominal.simulation.seed if seed is None else integer("sweep", "seed", seed, 0)
+    points = sweep_points(variations)
+    if len(points) * realisations > MAX_POINTS:
+        raise ParameterError("sweep", "--vary", f"at most {MAX_POINTS} runs",
+                             len(points) * realisations)
+    tasks, documents = [], []
+    for index, point in enumerate(points):
+        where = f"{path} --vary " + " ".join(f"{k}={v}" for k, v in point.items())
+        document = apply_overrides(copy.deepcopy(base),
+                                   [_override(k, v) for k, v in point.items()], where)
+        experiment = experiment_from_dict(document, source=where)  # errors name the key
+        if experiment.metrics_target() is None:
+            raise ParameterError(where, "metrics.target", "a target to measure ([metrics] "
+                                 "target or a [[targets]] entry)", None)
+        documents.append(document)
+        for realisation in range(realisations):
+            run_seed = task_seed(seed, index, realisation)
+            args = (document, str(path.resolve()), run_seed, algorithms)
+            tasks.append(Task(f"p{index:05d}-r{realisation:03d}", args,
+                              fingerprint([document, run_seed, algorithms, __version__])))
+    store = PointFolder(Path(out_dir), restart=restart)
+    records = run_tasks(_sweep_run, tasks, store, scheduler=scheduler, workers=workers,
+                        client=client, progress=progress, desc="sweep")
+    table = sweep_table(variations, realisations, algorithms,
+                        [records.get(t.key) for t in tasks], [t.args[2] for t in tasks])
+    table.attrs.update(campaign_seed=seed, experiment_source=str(path.resolve()),
+                       overrides=json.dumps(list(overrides)), mitsar_version=__version__,
+                       experiment=json.dumps(nominal.config))
+    out = Path(out_dir)
+    save(table, out / TABLE_FILE, overwrite=True)
+    frame = table.drop_vars([v for v in table.data_vars if "algorithm" not in table[v].dims]
+                            ).to_dataframe().reset_index()
+    frame = frame.merge(table[["seed", "error"]].to_dataframe().reset_index())
+    csv = frame.to_csv(index=False)
+    atomic_writer(out / CSV_FILE, True, lambda tmp: tmp.write_text(csv, encoding="utf-8"))
+    if figures:
+        plot_sweep(table, out / FIGURES_FOLDER)
+    return table
+
+
+def sweep_table(variations: Sequence[Variation], realisations: int, algorithms: Sequence[str],
+                records: Sequence[dict | None], seeds: Sequence[int]) -> xr.Dataset:
+    """The tidy table of a sweep from its task records (in task order: points, realisations).
+
+    Returns
+    -------
+    xarray.Dataset
+        Dims: the varied keys (coordinates: their values), ``realisation``, ``algorithm``.
+        Variables :data:`QUANTITIES` (NaN where not measured), ``seed`` and ``error`` (the run's
+        error text, "" when it ran), ``failure`` (why an algorithm's response was not
+        measurable, "" when it was).
+    """
+    shape = tuple(len(v.values) for v in variations) + (realisations,)
+    count = int(np.prod(shape))
+    values = np.full((count, len(algorithms), len(QUANTITIES)), np.nan)
+    failure = np.full((count, len(algorithms)), "", dtype=object)
+    error = np.full(count, "", dtype=object)
+    for i, record in enumerate(records):
+        if record is None or record.get("status") != "ok":
+            error[i] = "not run" if record is None else record.get("error", "failed")
+            continue
+        result = record["result"]
+        for j, algorithm in enumerate(algorithms):
+            metrics = result["metrics"].get(algorithm)
+            if metrics is None:
+                failure[i, j] = result.get("failures", {}).get(algorithm, "not measured")
+                continue
+            values[i, j] = [np.nan if metrics.get(q) is None else metrics[q] for q in QUANTITIES]
+    dims = tuple(v.key for v in variations) + ("realisation",)
+    units = {"irw_cells": "cells", "pslr_db": "dB", "islr_db": "dB", "peak_offset_m": "m",
+             "peak_db": "dB"}
+    data = {q: (dims + ("algorithm",), values[..., k].reshape(shape + (len(algorithms),)),
+                {"units": next(u for s, u in units.items() if q.endswith(s))})
+            for k, q in enumerate(QUANTITIES)}
+    data["seed"] = (dims, np.asarray(seeds, dtype=np.int64).reshape(shape))
+    data["error"] = (dims, error.astype(str).reshape(shape))
+    data["failure"] = (dims + ("algorithm",),
+                       failure.astype(str).reshape(shape + (len(algorithms),)))
+    coords = {v.key: list(v.values) if not any(isinstance(x, list) for x in v.values)
+              else [json.dumps(x) for x in v.values] for v in variations}
+    coords.update(realisation=np.arange(realisations), algorithm=list(algorithms))
+    table = xr.Dataset(data, coords=coords)
+    table.attrs.update(product="sweep", varied=json.dumps([v.key for v in variations]),
+                       runs=count, failed_runs=int(np.sum(error != "")))
+    return table
+
+
+def plot_sweep(table: xr.Dataset, folder: Path, overwrite: bool = True) -> list[Path]:
+    """One figure per measured quantity against the first varied key.
+
+    A panel per algorithm; a line per combination of the other varied keys (at most 8 drawn);
+    markers at the mean over realisations, bars +- one standard deviation.
+    """
+    folder.mkdir(parents=True, exist_ok=True)
+    keys = json.loads(table.attrs["varied"])
+    first, others = keys[0], keys[1:]
+    x = table[first].values
+    numeric = np.issubdtype(x.dtype, np.number)
+    combos = list(itertools.product(*(range(table.sizes[k]) for k in others)))[:8]
+    written = []
+    for quantity in QUANTITIES[:-1]:
+        algorithms = table["algorithm"].values
+        figure, axes = plt.subplots(1, len(algorithms), figsize=(4.5 * len(algorithms), 3.6),
+                                    squeeze=False, constrained_layout=True)
+        for ax, algorithm in zip(axes[0], algorithms, strict=True):
+            data = table[quantity].sel(algorithm=algorithm)
+            for combo in combos:
+                cut = data.isel(dict(zip(others, combo, strict=True)))
+                mean = cut.mean("realisation", skipna=True).values
+                std = cut.std("realisation", skipna=True).values
+                label = ", ".join(f"{k}={table[k].values[i]}"
+                                  for k, i in zip(others, combo, strict=True)) or None
+                ax.errorbar(x if numeric else np.arange(len(x)), mean, yerr=std, marker="o",
+                            capsize=3, label=label)
+            if not numeric:
+                ax.set_xticks(np.arange(len(x)), [str(v) for v in x])
+            ax.set(xlabel=first, ylabel=f"{quantity} [{table[quantity].attrs['units']}]",
+                   title=str(algorithm).upper())
+            ax.grid(alpha=0.3)
+            if others:
+                ax.legend(fontsize=7)
+        written.append(save_figure(figure, folder / f"{quantity}.png", overwrite=overwrite))
+    return written
