@@ -17,7 +17,12 @@ from numpy.typing import NDArray
 
 from mitsar.errors import ParameterError
 
-__all__ = ["KnownFields", "boolean", "finite", "integer", "is_real", "positive", "vector"]
+__all__ = ["MAX_LEVEL_DB", "MAX_RCS", "MAX_SEED", "KnownFields", "boolean", "finite", "integer",
+           "is_real", "level_db", "positive", "rcs", "seed", "vector"]
+
+MAX_LEVEL_DB = 100.0
+"""Highest RCS or sigma0 level accepted [dB re 1 m² or m²/m²]: 1e10 m², far above any indoor
+target; 10^(level/10) overflows a float near 3080 dB (docs/reliability.md §1)."""
 
 
 def is_real(value: object) -> bool:
@@ -49,6 +54,33 @@ def finite(where: str, name: str, value: Any, expected: str = "a finite number")
     return float(value)
 
 
+def level_db(where: str, name: str, value: Any, allow_minus_inf: bool = False,
+             maximum: float = MAX_LEVEL_DB) -> float:
+    """``value`` as a float if it is a level in dB below ``maximum`` (and finite, or ``-inf``
+    when ``allow_minus_inf``: nothing at all); refuses levels whose power 10^(level/10)
+    overflows or means nothing physical."""
+    floor = "finite or -inf" if allow_minus_inf else "finite"
+    expected = f"a level in dB <= {maximum:g} ({floor})"
+    if not is_real(value):
+        raise ParameterError(where, name, expected, value)
+    level = float(value)
+    if math.isnan(level) or level > maximum or (level == -math.inf and not allow_minus_inf):
+        raise ParameterError(where, name, expected, value)
+    return level
+
+
+MAX_RCS = 10.0 ** (MAX_LEVEL_DB / 10.0)
+"""Largest radar cross section accepted [m²] (:data:`MAX_LEVEL_DB`)."""
+
+
+def rcs(where: str, name: str, value: Any) -> float:
+    """``value`` as a float if it is a radar cross section in (0, :data:`MAX_RCS`] m²."""
+    expected = f"a radar cross section > 0 and <= {MAX_RCS:.0e} m² (finite)"
+    if not is_real(value) or not 0.0 < float(value) <= MAX_RCS:
+        raise ParameterError(where, name, expected, value)
+    return float(value)
+
+
 def positive(where: str, name: str, value: Any, expected: str = "a finite number > 0") -> float:
     """``value`` as a float if it is a finite real number > 0 (see :func:`finite`)."""
     if not is_real(value) or not math.isfinite(float(value)) or not float(value) > 0:
@@ -67,6 +99,19 @@ def integer(where: str, name: str, value: Any, minimum: int | None = None,
     if (not isinstance(value, numbers.Integral) or isinstance(value, bool | np.bool_)
             or (minimum is not None and value < minimum)):
         raise ParameterError(where, name, expected, value)
+    return int(value)
+
+
+MAX_SEED = 2**63 - 1
+"""Largest seed: products record it as a signed 64-bit integer."""
+
+
+def seed(where: str, name: str, value: Any) -> int:
+    """``value`` as an int if it is an integer seed in [0, :data:`MAX_SEED`] (not a bool)."""
+    if (not isinstance(value, numbers.Integral) or isinstance(value, bool | np.bool_)
+            or not 0 <= value <= MAX_SEED):
+        raise ParameterError(where, name, f"an integer seed in [0, {MAX_SEED}] (recorded as "
+                             "64 bits)", value)
     return int(value)
 
 

@@ -9,6 +9,7 @@
     mitsar metrics image.nc [--target X Y Z] [--islr-extent paper] [--json] [-o metrics.json]
     mitsar plot FILE -o FIG.png
     mitsar demo [-o DIR] [--overwrite]
+    mitsar sweep EXPERIMENT.toml --vary KEY=A:B:STEP [--vary ...] [-n N] -o DIR
 
 Errors in the input (bad files, invalid parameters) print one message on stderr and exit with
 status 2; ``--debug`` shows the traceback instead. See ``docs/cli.md``.
@@ -28,6 +29,7 @@ from typing import Any
 import matplotlib.pyplot as plt
 
 from mitsar.ambiguity.run import run_ambiguity_experiment
+from mitsar.budget import set_memory_limit
 from mitsar.errors import MitsarError
 from mitsar.experiment import montecarlo
 from mitsar.experiment.examples import example_path, examples_dir
@@ -47,7 +49,8 @@ from mitsar.experiment.options import (
 from mitsar.experiment.paper import PAPER_TABLES
 from mitsar.experiment.parsers import MAX_SEED
 from mitsar.experiment.rays import run_rays
-from mitsar.experiment.runs import run_focus, run_metrics, run_simulation
+from mitsar.experiment.runs import run_focus, run_metrics, run_simulation, simulate_to
+from mitsar.experiment.sweep import run_sweep
 from mitsar.export import write_cphd, write_sicd
 from mitsar.focus.compression import range_compress
 from mitsar.io import ProductFileError, check_writable, load, save, to_jsonable, write_json
@@ -108,10 +111,11 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         experiment.config.setdefault("simulation", {})["seed"] = args.seed
     start = time.perf_counter()
     _log(args, f"simulating {args.experiment} ...")
-    raw = run_simulation(experiment, progress=not args.quiet)
-    save(raw, args.output, overwrite=args.overwrite)
-    _log(args, f"wrote {args.output}: raw product, {raw.sizes['sweep']} sweeps x "
-               f"{raw.sizes['sample']} samples ({time.perf_counter() - start:.1f} s)")
+    sweeps = simulate_to(experiment, args.output, overwrite=args.overwrite,
+                         progress=not args.quiet)
+    _log(args, f"wrote {args.output}: raw product, {sweeps} sweeps x "
+               f"{experiment.radar.samples_per_sweep} samples "
+               f"({time.perf_counter() - start:.1f} s)")
     return 0
 
 
@@ -195,6 +199,8 @@ def format_metrics(metrics: dict[str, Any]) -> str:
                      f"{m['pslr_db']:>11.2f}{m['islr_db']:>11.2f}")
     if "islr_2d_db" in metrics:
         lines.append(f"2-D ISLR {metrics['islr_2d_db']:.2f} dB")
+    if "snr_db" in metrics:  # images of raw data with a noise figure (docs/metrics.md §Noise)
+        lines.append(f"SNR {metrics['snr_db']:.2f} dB, NESZ {metrics['nesz_db']:.2f} dB")
     lines.extend(f"warning: {message}" for message in metrics.get("warnings", []))
     return "\n".join(lines)
 
@@ -229,6 +235,9 @@ def _scene_marks(path: str) -> dict[str, float] | None:
 
 def cmd_plot(args: argparse.Namespace) -> int:
     """``mitsar plot``: product file -> figure."""
+    if args.dynamic_range is not None and not args.dynamic_range > 0:
+        raise MitsarError(f"--dynamic-range: expected a colour scale depth > 0 dB, found "
+                          f"{args.dynamic_range}")
     plot_file(args.file, args.output, overwrite=args.overwrite,
               dynamic_range_db=args.dynamic_range, range_marks=_scene_marks(args.file))
     _log(args, f"wrote {args.output}")
@@ -339,8 +348,14 @@ def cmd_montecarlo(args: argparse.Namespace) -> int:
     _log(args, f"Monte Carlo: {args.realisations} realisations x {', '.join(args.algorithms)}")
     experiment = load_experiment(args.experiment, args.set)
     summary = montecarlo.run(experiment, args.realisations, args.algorithms, out_dir=out,
-                             resume=not args.restart, progress=not args.quiet)
+                             resume=not args.restart, progress=not args.quiet,
+                             scheduler=args.scheduler, workers=args.workers)
     print(montecarlo.format_table(summary))
+    if int(summary["count"].max()) == 0:
+        reasons = json.loads(summary.attrs.get("failures", "{}") or "{}")
+        first = next(iter(reasons.items()), ("", "unknown"))
+        raise MitsarError(f"montecarlo: no realisation of {args.experiment} could be measured, "
+                          f"nothing to average; seed {first[0]}: {first[1]}")
     if args.cuts:
         for algorithm in args.algorithms:
             cuts = montecarlo.realisation_cuts(experiment, algorithm, args.cuts)
@@ -348,6 +363,30 @@ def cmd_montecarlo(args: argparse.Namespace) -> int:
                                                       overwrite=True)
             _log(args, f"wrote {figure}")
     return 0
+
+
+def cmd_sweep(args: argparse.Namespace) -> int:
+    """``mitsar sweep``: metrics over the Cartesian product of varied experiment keys."""
+    out = Path(args.output)
+    if out.exists() and not out.is_dir():
+        raise ProductFileError(f"{out}: exists and is not a folder (-o names the sweep folder; "
+                               "choose another name)")
+    table = run_sweep(args.experiment, args.vary, out, realisations=args.realisations,
+                      algorithms=args.algorithms, seed=args.seed, overrides=args.set,
+                      scheduler=args.scheduler, workers=args.workers, restart=args.restart,
+                      progress=not args.quiet)
+    _log(args, f"wrote {out / 'sweep.nc'}, {out / 'sweep.csv'} and figures/: "
+               f"{table.attrs['runs']} runs, {table.attrs['failed_runs']} failed")
+    return 0
+
+
+def _add_scheduler(sub: argparse.ArgumentParser) -> None:
+    sub.add_argument("--scheduler", metavar="ADDRESS",
+                     help="Dask scheduler: an address (tcp://host:8786), 'local[:N]' or "
+                     "'inline' (default: $MITSAR_DASK_SCHEDULER, else a local cluster with one "
+                     "worker per core)")
+    sub.add_argument("--workers", type=int, metavar="N",
+                     help="worker processes of the local cluster (default: one per core)")
 
 
 def cmd_rays(args: argparse.Namespace) -> int:
@@ -468,6 +507,11 @@ def build_parser() -> argparse.ArgumentParser:
                            help="show the full traceback on errors")
         owner.add_argument("-q", "--quiet", action="store_true", default=default,
                            help="no progress bars or messages on stderr")
+        owner.add_argument("--memory-limit", metavar="SIZE",
+                           default=None if default is False else argparse.SUPPRESS,
+                           help="memory a command may use, e.g. 4G (default: "
+                           "$MITSAR_MEMORY_LIMIT, else the machine's available memory); "
+                           "larger requests are refused before any work")
     commands = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
     sub = _file_command(commands, common, "simulate", cmd_simulate,
@@ -553,6 +597,27 @@ def build_parser() -> argparse.ArgumentParser:
                      help="also plot cuts of N realisations over the nominal response "
                      "(paper Figs. 8-9; 0: none)")
     _add_set(sub)
+    _add_scheduler(sub)
+
+    sub = _folder_command(commands, common, "sweep", cmd_sweep,
+                          "metrics over a grid of experiment parameters (on Dask)",
+                          "Simulate, focus and measure every point of the Cartesian product of "
+                          "the --vary keys (any experiment key, as --set), -n realisations "
+                          "each, on a Dask cluster; write one table (sweep.nc, sweep.csv) and a "
+                          "figure per metric. Interrupted sweeps resume: finished points are "
+                          "kept in DIR/points/.", "EXPERIMENT.toml", overwrite=False)
+    sub.add_argument("--vary", action="append", required=True, metavar="KEY=VALUES",
+                     help="a varied key: KEY=START:STOP:STEP (inclusive) or KEY=V1,V2,... "
+                     "(repeatable; e.g. look.off_nadir_deg=40:70:5)")
+    sub.add_argument("-n", "--realisations", type=int, default=1,
+                     help="simulations of every point (seeded from --seed and the point)")
+    sub.add_argument("-a", "--algorithms", nargs="+", choices=ALGORITHMS,
+                     help="algorithms (default: the experiment's [focus] algorithm)")
+    sub.add_argument("--seed", type=int, help="campaign seed (default: [simulation] seed)")
+    sub.add_argument("--restart", action="store_true",
+                     help="discard the records of an earlier run in DIR instead of reusing them")
+    _add_set(sub)
+    _add_scheduler(sub)
 
     sub = _folder_command(commands, common, "rays", cmd_rays,
                           "ray geometry and echoes of a scene (paper Figs. 6, 10, 11)",
@@ -612,6 +677,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
+        set_memory_limit(args.memory_limit)
         return int(args.func(args) or 0)
     except KeyboardInterrupt:
         print("mitsar: interrupted", file=sys.stderr)

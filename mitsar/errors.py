@@ -36,9 +36,47 @@ class ParameterError(MitsarError, ValueError):
         super().__init__(f"{where}: parameter '{name}': expected {expected}, found {found!r}")
 
 
+class MitsarWarning(UserWarning):
+    """A valid but suspicious input or an empty result (e.g. raw data of exact zeros)."""
+
+
 class SceneError(MitsarError):
     """A Mitsuba scene cannot be loaded or used; the message names the file and element."""
 
 
 class MissingFileError(SceneError, FileNotFoundError):
     """A scene file, or a file it references (e.g. a PLY mesh), does not exist."""
+
+
+class MemoryBudgetError(ParameterError):
+    """A request would need more memory than the machine (or ``--memory-limit``) has.
+
+    Raised before any work by :func:`mitsar.budget.require_memory`; a
+    :class:`ParameterError` naming the parameter that drives the size, the need and what is
+    available, and what to change (docs/reliability.md §2).
+    """
+
+    def __init__(self, where: str, name: str, needed: int, available: int, limit_source: str,
+                 hint: str = "") -> None:
+        self.needed = int(needed)
+        self.available = int(available)
+        found = f"a request of about {format_bytes(needed)}"
+        expected = (f"a request that fits in the {format_bytes(available)} available "
+                    f"({limit_source})")
+        ParameterError.__init__(self, where, name, expected, found)
+        tail = f"; {hint}" if hint else ""
+        self.args = (f"{where}: parameter '{name}': needs about {format_bytes(needed)} of "
+                     f"memory, {format_bytes(available)} available ({limit_source}){tail}",)
+
+    def __str__(self) -> str:
+        return str(self.args[0])
+
+
+def format_bytes(count: float) -> str:
+    """A byte count in binary units, e.g. ``format_bytes(2**40) == "1.00 TiB"``."""
+    value = float(count)
+    for unit in ("B", "KiB", "MiB", "GiB", "TiB", "PiB", "EiB"):
+        if abs(value) < 1024.0 or unit == "EiB":
+            return f"{value:.0f} {unit}" if unit == "B" else f"{value:.2f} {unit}"
+        value /= 1024.0
+    return f"{value:.2f} EiB"  # pragma: no cover (the loop returns)

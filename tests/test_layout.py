@@ -14,7 +14,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "mitsar"
 # below; a higher rank importing a lower one is the pipeline's direction.
 RANKS = {
     "mitsar.errors": 0, "mitsar.version": 0,
-    "mitsar.checks": 1, "mitsar.backend": 1, "mitsar.io": 1,
+    "mitsar.checks": 1, "mitsar.budget": 1, "mitsar.backend": 1, "mitsar.io": 1,
     "mitsar.model": 2,
     "mitsar.scene": 3,
     "mitsar.plugins": 4,

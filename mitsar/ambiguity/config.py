@@ -24,6 +24,10 @@ from mitsar.model.geometry.attitude import Look
 __all__ = ["load_ambiguity_experiment"]
 
 
+MAX_STATES = 10**7
+"""Largest ``max_states``: ten million states is a 14-hour flight at 250 Hz, every sweep."""
+
+
 def _parse_ambiguity_options(t: Table) -> dict[str, Any]:
     options: dict[str, Any] = {}
     options["spacing"] = t.number("spacing", 0.25, unit="m", gt=0)
@@ -40,6 +44,9 @@ def _parse_ambiguity_options(t: Table) -> dict[str, Any]:
     options["exclude"] = exclude
     options["sweep_step"] = t.integer("sweep_step", None, ge=1)
     options["max_states"] = t.integer("max_states", 600, ge=2)
+    if options["max_states"] > MAX_STATES:
+        raise t.error("max_states", f"an integer in [2, {MAX_STATES}] (states)",
+                      options["max_states"])
     t.seen.add("integration_time")
     value = t.data.get("integration_time", "beam")
     if isinstance(value, str):

@@ -47,6 +47,7 @@ from mitsar.ambiguity.gradient import doppler_gradient, gradient_resolution
 from mitsar.ambiguity.points import SurfacePoints, sample_surfaces, unit_rows
 from mitsar.ambiguity.shadows import visible
 from mitsar.ambiguity.states import States, platform_states, run_durations
+from mitsar.budget import require_memory
 from mitsar.errors import ParameterError
 from mitsar.model.geometry.antenna import one_way_pattern
 from mitsar.model.geometry.attitude import Look
@@ -281,6 +282,11 @@ def _aggregate(chunk: dict[str, NDArray], states: States) -> dict[str, NDArray]:
     return out
 
 
+PAIR_BYTES = 48
+"""Peak bytes per (point, state) pair kept with ``per_state``: 21 bytes of maps, their
+concatenation and the product's copy."""
+
+
 def ambiguity(radar: Radar, trajectory: Trajectory, look: Look, scene_or_grid: Any,
               required_resolution: float = 0.10, *, sweep_step: int | None = None,
               integration_time: float | str | None = None, spacing: float = 0.25,
@@ -347,6 +353,10 @@ def ambiguity(radar: Radar, trajectory: Trajectory, look: Look, scene_or_grid: A
                "shadowing": bool(shadowing), "required_range": required_range,
                "required_azimuth": required_azimuth}
     size = len(states.time)
+    require_memory("ambiguity", "spacing", float(len(points)) * size * (
+        PAIR_BYTES if per_state else 0) + float(len(points)) * 256,
+        f"{len(points)} points x {size} states: a coarser spacing, a larger sweep_step or "
+        "fewer max_states, or per_state = false")
     rows_per_chunk = max(1, int(chunk_pairs) // size)
     per_state_names = ("range_resolution", "azimuth_resolution", "angle", "incidence",
                        "integration_time", "observation")

@@ -13,6 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from mitsar.budget import MAX_SWEEPS, require_count, require_memory
+from mitsar.checks import integer
 from mitsar.errors import ParameterError
 from mitsar.model.geometry.attitude import Look, antenna_frame
 from mitsar.model.geometry.trajectory import Trajectory
@@ -37,6 +39,11 @@ class States:
     step: int
 
 
+STATE_BYTES = 512
+"""Peak bytes per platform state: time, interval, position, velocity, attitude, antenna frame
+and the per-state sums of the maps (float64)."""
+
+
 def platform_states(radar: Radar, trajectory: Trajectory, look: Look, sweep_step: int | None,
                     max_states: int) -> States:
     """Every ``sweep_step``-th sweep (default: at most ``max_states`` states) of a trajectory."""
@@ -44,13 +51,20 @@ def platform_states(radar: Radar, trajectory: Trajectory, look: Look, sweep_step
     if sweeps < 1:
         raise ParameterError("ambiguity", "trajectory.duration",
                              f">= one sweep ({radar.sweep_duration:g} s)", trajectory.duration)
+    require_count("ambiguity", "trajectory.duration", sweeps, MAX_SWEEPS,
+                  "sweeps (duration x prf)")
     if sweep_step is None:
+        max_states = integer("ambiguity", "max_states", max_states, 2, "an integer >= 2 (states)")
         step = max(1, math.ceil(sweeps / max_states))
     else:
         if isinstance(sweep_step, bool) or int(sweep_step) != sweep_step or sweep_step < 1:
             raise ParameterError("ambiguity", "sweep_step", "an integer >= 1 (sweeps)",
                                  sweep_step)
         step = int(sweep_step)
+    count = math.ceil(sweeps / step)
+    require_memory("ambiguity", "max_states" if sweep_step is None else "sweep_step",
+                   count * STATE_BYTES, f"{count} platform states of {sweeps} sweeps: "
+                   "fewer max_states or a larger sweep_step")
     sweep = np.arange(0, sweeps, step)
     time = (sweep + 0.5) / radar.prf
     interval = np.stack([sweep / radar.prf, np.minimum(sweep + step, sweeps) / radar.prf], -1)

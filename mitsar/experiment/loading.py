@@ -33,6 +33,7 @@ from mitsar.experiment.parsers import (
     parse_grid,
     parse_look,
     parse_metrics,
+    parse_motion,
     parse_radar,
     parse_scene,
     parse_simulation,
@@ -82,6 +83,13 @@ def experiment_from_dict(data: Mapping[str, Any], source: str | os.PathLike | No
     name = top.string("name", "")
     description = top.string("description", "")
     scene = parse_scene(top)
+    motion_table = top.table("motion")
+    motion = parse_motion(motion_table)
+    if motion_table is not None:
+        if scene is None:
+            raise top.error("motion", "no [motion] without a scene (it moves the scene's "
+                            "shapes; point targets have their own velocity)", "a [motion] table")
+        top.out["motion"] = motion_table.out
     radar = parse_radar(top.table("radar") or Table({}, "radar", where, top.base))
     top.out["radar"] = _radar_config(radar)
     trajectory_table = top.table("trajectory", required=True)
@@ -115,7 +123,7 @@ def experiment_from_dict(data: Mapping[str, Any], source: str | os.PathLike | No
                       targets=targets,
                       background=background, simulation=sections["simulation"],
                       focus=sections["focus"], metrics=sections["metrics"], scene=scene,
-                      name=name, description=description,
+                      motion=motion, name=name, description=description,
                       source=Path(source).resolve() if source is not None else None,
                       config=config)
 

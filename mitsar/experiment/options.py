@@ -74,6 +74,9 @@ class SimulationOptions:
     max_depth, rays, ray_cover, ghosts, plane_normal, slab_width
         Multipath options of a scene (:func:`mitsar.raw.traced.trace`); ``None``: the scene
         integrator's (default: direct backscatter only, 3D).
+    physical_optics : bool or tuple of str
+        Physical-optics returns of planar facets (docs/physical_optics.md): all meshes with a
+        radar material (``True``) or the shapes with these ids.
     """
 
     seed: int = 0
@@ -88,6 +91,7 @@ class SimulationOptions:
     ghosts: bool | None = None
     plane_normal: tuple[float, float, float] | None = None
     slab_width: float | None = None
+    physical_optics: bool | tuple[str, ...] = False
 
     def multipath(self) -> dict[str, Any]:
         """The multipath keyword arguments of :func:`mitsar.raw.traced.simulate_scene`."""
@@ -164,6 +168,9 @@ class Experiment:
         A scene file (absolute path) or a canned scene name, for scene-based simulation.
     navigation : NavigationErrors or None
         ``[trajectory.errors]``: what the navigation system records differs from the track.
+    motion : dict
+        ``[motion.<shape id>] velocity``: shapes of the scene that move [m/s]
+        (:mod:`mitsar.scene.motion`).
     name, description : str
         Free text from the file.
     source : Path or None
@@ -183,6 +190,7 @@ class Experiment:
     metrics: MetricsOptions
     scene: str | None = None
     navigation: NavigationErrors | None = None
+    motion: dict[str, tuple[float, float, float]] = field(default_factory=dict)
     name: str = ""
     description: str = ""
     source: Path | None = None

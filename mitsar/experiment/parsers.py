@@ -28,9 +28,10 @@ from mitsar.experiment.options import (
     SimulationOptions,
 )
 from mitsar.experiment.table import Table, prefixed
+from mitsar.focus.grid import axis_count, require_pixels
 from mitsar.model.geometry.attitude import Look
 from mitsar.model.geometry.navigation import NavigationErrors
-from mitsar.model.geometry.trajectory import Trajectory
+from mitsar.model.geometry.trajectory import Trajectory, is_vertical
 from mitsar.model.radar import Radar
 from mitsar.model.targets import Background, PointTarget
 
@@ -85,11 +86,19 @@ def parse_trajectory(t: Table) -> Trajectory:
             velocity = t.vector("velocity", 3, unit="m/s")
             duration = t.number("duration", unit="s", gt=0)
             t.finish()
+            if is_vertical(np.asarray(velocity)[None]):
+                raise t.error("velocity", "a velocity with a horizontal component (the heading "
+                              "follows it; for a vertical climb use kind = 'navigation' with "
+                              "attitude_deg)", list(velocity))
             return Trajectory.linear(start, velocity, duration)
         if kind == "waypoints":
             points = t.vectors("points", 3, min_count=2, unit="m")
             speed = t.number("speed", unit="m/s", gt=0)
             t.finish()
+            if is_vertical(np.diff(np.asarray(points, dtype=float), axis=0)):
+                raise t.error("points", "legs with a horizontal component (the heading follows "
+                              "them; for a vertical climb use kind = 'flight' or 'navigation')",
+                              [list(p) for p in points])
             return Trajectory.waypoints(points, speed)
         if kind == "flight":
             points = t.vectors("points", 3, min_count=2, unit="m")
@@ -264,9 +273,26 @@ def parse_simulation(t: Table | None) -> SimulationOptions:
                                 ray_cover=t.number("ray_cover", None, unit="beamwidths", gt=0),
                                 ghosts=t.boolean("ghosts", None),
                                 plane_normal=t.vector("plane_normal", 3, None),
-                                slab_width=t.number("slab_width", None, unit="m", gt=0))
+                                slab_width=t.number("slab_width", None, unit="m", gt=0),
+                                physical_optics=_physical_optics(t))
     t.finish()
     return options
+
+
+def _physical_optics(t: Table) -> bool | tuple[str, ...]:
+    """``physical_optics``: true/false or an array of shape ids (docs/physical_optics.md §5)."""
+    value = t.data.get("physical_optics", False)
+    if isinstance(value, bool):
+        return bool(t.boolean("physical_optics", False))
+    if isinstance(value, list) and value and all(isinstance(v, str) for v in value):
+        t.seen.add("physical_optics")
+        t.out["physical_optics"] = list(value)
+        return tuple(value)
+    raise t.error("physical_optics", "true, false or an array of shape ids", value)
+
+
+MAX_RESOLUTION = 1000.0
+"""Coarsest processed azimuth resolution accepted [m], far beyond any indoor scene."""
 
 
 def parse_focus(t: Table | None) -> FocusOptions:
@@ -275,7 +301,7 @@ def parse_focus(t: Table | None) -> FocusOptions:
         return FocusOptions()
     algorithm = t.string("algorithm", "bpa", choices=ALGORITHMS)
     window = t.string("window", "rect", choices=WINDOWS)
-    resolution = t.number("azimuth_resolution", None, unit="m", gt=0)
+    resolution = t.number("azimuth_resolution", None, unit="m", gt=0, le=MAX_RESOLUTION)
     autofocus = t.string("autofocus", None, choices=AUTOFOCUS_METHODS)
     grid_table = t.table("grid")
     grid = parse_grid(grid_table) if grid_table is not None else None
@@ -301,8 +327,8 @@ def parse_grid(t: Table) -> dict[str, Any]:
     """``[focus.grid]``: kind = "slant" | "plane" | "points" and its axes."""
     kind = t.string("kind", "slant", choices=GRID_KINDS)
     if kind == "slant":
-        for name in ("along_track", "slant_range"):
-            parse_axis(t, name)
+        counts = [parse_axis(t, name) for name in ("along_track", "slant_range")]
+        require_pixels(t.where, t.key("along_track") + " x slant_range", counts[0] * counts[1])
     elif kind == "plane":
         for name in ("origin", "axis_u", "axis_v"):
             t.vector(name, 3, unit="m" if name == "origin" else "")
@@ -313,19 +339,21 @@ def parse_grid(t: Table) -> dict[str, Any]:
         if abs(u @ v) > 1e-6 * np.linalg.norm(u) * np.linalg.norm(v):
             raise t.error("axis_v", f"a direction orthogonal to axis_u {t.out['axis_u']}",
                           t.out["axis_v"])
-        for name in ("u", "v"):
-            parse_axis(t, name)
+        counts = [parse_axis(t, name) for name in ("u", "v")]
+        require_pixels(t.where, t.key("u") + " x v", counts[0] * counts[1])
     else:
         t.vectors("points", 3, min_count=1, unit="m")
     return t.finish()
 
 
-def parse_axis(t: Table, name: str) -> None:
-    """A grid axis ``[start, stop, step]`` [m] with ``stop > start`` and ``step > 0``."""
+def parse_axis(t: Table, name: str) -> float:
+    """A grid axis ``[start, stop, step]`` [m] with ``stop > start`` and ``step > 0``; returns
+    its number of coordinates."""
     vec = t.vector(name, 3, unit="m")
     start, stop, step = vec
     if not (stop > start and step > 0):
         raise t.error(name, "[start, stop, step] with stop > start and step > 0 [m]", list(vec))
+    return axis_count(start, stop, step)
 
 
 def parse_metrics(t: Table | None) -> MetricsOptions:
@@ -343,6 +371,23 @@ def parse_metrics(t: Table | None) -> MetricsOptions:
     t.out["islr_extent"] = extent
     t.finish()
     return MetricsOptions(target, extent if isinstance(extent, str) else float(extent))
+
+
+def parse_motion(t: Table | None) -> dict[str, tuple[float, float, float]]:
+    """``[motion.<shape id>]``: the ``velocity`` [m/s] of a moving shape of the scene
+    (:mod:`mitsar.scene.motion`; the ids are checked against the scene when it is loaded)."""
+    if t is None:
+        return {}
+    motion = {}
+    for shape_id in list(t.data):
+        if not isinstance(t.data[shape_id], dict):
+            raise t.error(shape_id, "a table [motion.<shape id>] with velocity = [vx, vy, vz]",
+                          t.data[shape_id])
+        shape = t.table(shape_id)
+        motion[shape_id] = shape.vector("velocity", 3, unit="m/s")
+        t.out[shape_id] = shape.finish()
+    t.finish()
+    return motion
 
 
 def parse_scene(t: Table) -> str | None:

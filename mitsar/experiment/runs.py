@@ -8,19 +8,26 @@ saved product) finds the target and options it was run with.
 from __future__ import annotations
 
 import json
+import os
+import warnings
+from pathlib import Path
 from typing import Any
 
 import xarray as xr
 
-from mitsar.errors import MitsarError
+from mitsar.errors import MitsarError, MitsarWarning
 from mitsar.experiment.loading import metrics_options_from_config
 from mitsar.experiment.options import Experiment, FocusOptions, MetricsOptions
 from mitsar.focus.dispatch import focus
+from mitsar.io import ZarrStream, is_zarr, save
 from mitsar.quality.impulse import measure_impulse_response
-from mitsar.raw.analytic import simulate_point_targets
+from mitsar.raw.analytic import simulate_point_targets, stream_point_targets
 from mitsar.raw.traced import simulate_scene
 
-__all__ = ["run_focus", "run_metrics", "run_simulation"]
+EMPTY_SCENE_WARNING = "simulate_scene: raw data of exact zeros"
+"""Start of :func:`simulate_scene`'s warning for an acquisition that sees nothing."""
+
+__all__ = ["run_focus", "run_metrics", "run_simulation", "simulate_to"]
 
 
 def run_simulation(experiment: Experiment, progress: bool = False) -> xr.Dataset:
@@ -41,27 +48,83 @@ def run_simulation(experiment: Experiment, progress: bool = False) -> xr.Dataset
     """
     options = experiment.simulation
     if experiment.scene is not None:
-        if options.noise:
-            raise MitsarError(f"{experiment.source or 'experiment'}: key 'simulation.noise': "
-                              "thermal noise is not available with a scene yet")
-        raw = simulate_scene(
-            experiment.radar, experiment.trajectory, experiment.look, experiment.scene,
-            targets=experiment.targets, background=experiment.background, seed=options.seed,
-            density=options.scatterer_density, orders=options.orders, rvp=options.rvp,
-            normalized=options.normalized, progress=progress, navigation=experiment.navigation,
-            **options.multipath())
+        # An experiment whose echoes are all zero is refused (the API only warns).
+        with warnings.catch_warnings():
+            warnings.filterwarnings("error", EMPTY_SCENE_WARNING, MitsarWarning)
+            try:
+                raw = simulate_scene(
+                    experiment.radar, experiment.trajectory, experiment.look, experiment.scene,
+                    targets=experiment.targets, background=experiment.background,
+                    seed=options.seed, density=options.scatterer_density,
+                    orders=options.orders, rvp=options.rvp, normalized=options.normalized,
+                    progress=progress, navigation=experiment.navigation, noise=options.noise,
+                    physical_optics=options.physical_optics, motion=experiment.motion,
+                    **options.multipath())
+            except MitsarWarning as warning:
+                where = experiment.source or "experiment"
+                raise MitsarError(f"{where}: scene {experiment.scene!r}: {warning}") from None
     else:
         raw = simulate_point_targets(
             experiment.radar, experiment.trajectory, experiment.look, experiment.targets,
             background=experiment.background, seed=options.seed, rvp=options.rvp,
             normalized=options.normalized, noise=options.noise, progress=progress,
             navigation=experiment.navigation)
-    raw.attrs["experiment"] = json.dumps(experiment.config)
-    if experiment.source is not None:
-        raw.attrs["experiment_source"] = str(experiment.source)
-    if experiment.name:
-        raw.attrs["experiment_name"] = experiment.name
+    raw.attrs.update(_experiment_attrs(experiment))
     return raw
+
+
+def _experiment_attrs(experiment: Experiment) -> dict[str, str]:
+    """The experiment record a raw product carries (see :func:`run_simulation`)."""
+    attrs = {"experiment": json.dumps(experiment.config)}
+    if experiment.source is not None:
+        attrs["experiment_source"] = str(experiment.source)
+    if experiment.name:
+        attrs["experiment_name"] = experiment.name
+    return attrs
+
+
+def simulate_to(experiment: Experiment, path: str | os.PathLike, overwrite: bool = False,
+                progress: bool = False, chunk_sweeps: int = 1024) -> int:
+    """Simulate an experiment's raw product straight into a file or Zarr store.
+
+    To a ``.zarr`` path, a point-target experiment is simulated ``chunk_sweeps`` sweeps at a
+    time and each chunk appended to the store (:func:`mitsar.raw.analytic.stream_point_targets`,
+    :class:`mitsar.io.ZarrStream`), so memory holds one chunk, not the acquisition; a scene
+    experiment is traced whole and written chunked. Any other path gets
+    :func:`run_simulation` and :func:`mitsar.io.save`.
+
+    Parameters
+    ----------
+    experiment : Experiment
+    path : path-like
+        ``*.nc`` or ``*.zarr``.
+    overwrite : bool
+        Replace an existing product.
+    progress : bool
+        Show a progress bar.
+    chunk_sweeps : int
+        Sweeps per streamed chunk (and per Zarr chunk).
+
+    Returns
+    -------
+    int
+        Number of sweeps written.
+    """
+    if not is_zarr(path) or experiment.scene is not None:
+        raw = run_simulation(experiment, progress=progress)
+        save(raw, path, overwrite=overwrite)
+        return int(raw.sizes["sweep"])
+    options = experiment.simulation
+    chunks = stream_point_targets(
+        experiment.radar, experiment.trajectory, experiment.look, experiment.targets,
+        background=experiment.background, seed=options.seed, rvp=options.rvp,
+        normalized=options.normalized, noise=options.noise, progress=progress,
+        navigation=experiment.navigation, sweeps_per_chunk=chunk_sweeps)
+    with ZarrStream(Path(path), overwrite=overwrite, chunk_sweeps=chunk_sweeps) as out:
+        for chunk in chunks:
+            chunk.attrs.update(_experiment_attrs(experiment))
+            out.append(chunk)
+    return out.sweeps
 
 
 def run_focus(raw: xr.Dataset, options: FocusOptions, progress: bool = False) -> xr.Dataset:

@@ -39,16 +39,40 @@ import xarray as xr
 from numpy.typing import ArrayLike, NDArray
 
 from mitsar import checks
+from mitsar.budget import require_memory
 from mitsar.errors import ParameterError
 from mitsar.model.radar import Radar
+
+PIXEL_BYTES = 160
+"""Peak bytes per image pixel: position (24), complex image (16), coverage and weights, the
+back-projection's per-pixel lanes and the product's copy."""
+
+
+def axis_count(start: float, stop: float, step: float) -> float:
+    """Number of coordinates of an axis ``[start, stop, step]`` (stop included on the step)."""
+    return math.floor((stop - start) / step + 1e-9) + 1.0
+
+
+def require_pixels(where: str, name: str, pixels: float) -> None:
+    """Refuse, before any work, a focus grid whose image would not fit in memory
+    (:func:`mitsar.budget.require_memory`; docs/reliability.md §2)."""
+    require_memory(where, name, pixels * PIXEL_BYTES,
+                   f"{pixels:.3g} pixels: a coarser step or a smaller extent (or focus the "
+                   "scene in tiles, one grid each)")
 
 
 def axis_values(spec: ArrayLike, name: str) -> NDArray[np.float64]:
     """Coordinates from ``[start, stop, step]`` (stop included when on the step) or an array."""
-    values = np.asarray(spec, dtype=float)
-    if values.ndim == 1 and len(values) == 3 and values[2] > 0 and values[1] > values[0]:
-        count = int(np.floor((values[1] - values[0]) / values[2] + 1e-9)) + 1
-        return values[0] + values[2] * np.arange(count)
+    try:
+        values = np.asarray(spec, dtype=float)
+    except (TypeError, ValueError):
+        values = np.full(0, np.nan)
+    if (values.ndim == 1 and len(values) == 3 and np.all(np.isfinite(values))
+            and values[2] > 0 and values[1] > values[0]):
+        count = axis_count(*values)
+        require_memory("grid", name, count * 32.0, f"{count:.3g} coordinates along {name!r}: "
+                       "a coarser step or a smaller extent")
+        return values[0] + values[2] * np.arange(int(count))
     if values.ndim == 1 and len(values) >= 2 and np.all(np.diff(values) > 0):
         return values
     raise ParameterError("grid", name, "[start, stop, step] with stop > start and step > 0, "
@@ -192,6 +216,7 @@ class SlantGrid:
             a = _extend(np.zeros(1), low, high, step)
         else:
             a = axis_values(self.along_track, "along_track")
+        require_pixels("SlantGrid", "along_track x slant_range", float(len(a)) * len(r))
         pixel = origin + a[:, None, None] * along + r[None, :, None] * look
         # The response is the processed band seen at the Doppler-centroid squint (module doc).
         sine = float(np.clip(np.mean(_centroid_sines(raw)), -0.999, 0.999))
@@ -233,6 +258,7 @@ class PlaneGrid:
             raise ParameterError("PlaneGrid", "axis_u/axis_v", "orthogonal directions",
                                  (list(self.axis_u), list(self.axis_v)))
         u, v = axis_values(self.u, "u"), axis_values(self.v, "v")
+        require_pixels("PlaneGrid", "u x v", float(len(u)) * len(v))
         pixel = origin + v[:, None, None] * axis_v + u[None, :, None] * axis_u
         # Range and azimuth directions in the plane, seen from the aperture centre.
         centre = pixel[len(v) // 2, len(u) // 2]

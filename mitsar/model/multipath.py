@@ -151,6 +151,10 @@ def ray_set(radar: Radar, rays: int, cover: float = 1.0, planar: bool = False,
         raise ParameterError("ray_set", "cover", "a number of beamwidths > 0", cover)
     b0, b1 = beamwidths if beamwidths is not None else (radar.azimuth_beamwidth,
                                                         radar.elevation_beamwidth)
+    if planar and cover * b1 > 0.999:
+        raise ParameterError("ray_set", "cover", f"<= {0.999 / b1:.3g} beamwidths (ray_cover: the "
+                             "fan's direction sines must stay below 1, in front of the antenna)",
+                             cover)
     half0, half1 = min(cover * b0, 0.999), min(cover * b1, 0.999)
     if planar:
         n0, n1 = 1, int(rays)

@@ -210,8 +210,12 @@ class Radar(metaclass=KnownFields):
         pattern); its sidelobe and beam-edge energy beyond it still aliases weakly.
         Focusing refuses, separately, a *processed* band wider than the PRF.
         """
+        speed = finite("Radar.check_prf", "speed", speed, "a finite platform speed >= 0 m/s")
+        if speed < 0:
+            raise ParameterError("Radar.check_prf", "speed", "a finite platform speed >= 0 m/s",
+                                 speed)
         band = self.doppler_bandwidth(speed)
-        if self.prf < band:
+        if not self.prf >= band:
             raise ParameterError(
                 "Radar", "prf",
                 f">= the azimuth Doppler bandwidth 4 v sin(theta_AZ/2)/lambda = {band:.1f} Hz "

@@ -16,7 +16,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mitsar.checks import finite, integer, positive, vector
+from mitsar.checks import integer, level_db, rcs, vector
 from mitsar.errors import ParameterError
 
 
@@ -46,8 +46,7 @@ class PointTarget:
     def __post_init__(self) -> None:
         object.__setattr__(self, "position", _vector3("PointTarget", "position", self.position))
         object.__setattr__(self, "velocity", _vector3("PointTarget", "velocity", self.velocity))
-        object.__setattr__(self, "rcs", positive("PointTarget", "rcs", self.rcs,
-                                                 "a radar cross section > 0 m^2"))
+        object.__setattr__(self, "rcs", rcs("PointTarget", "rcs", self.rcs))
 
 
 @dataclass(frozen=True)
@@ -87,7 +86,7 @@ class Background:
         if not np.all(size > 0):
             raise ParameterError("Background", "size", "2 extents > 0 m", self.size)
         object.__setattr__(self, "size", (float(size[0]), float(size[1])))
-        finite("Background", "cell_rcs_db", self.cell_rcs_db, "a finite level [dBsm]")
+        level_db("Background", "cell_rcs_db", self.cell_rcs_db)
         if self.mode not in ("pulse", "frozen"):
             raise ParameterError("Background", "mode", "'pulse' or 'frozen'", self.mode)
         integer("Background", "scatterers_per_cell", self.scatterers_per_cell, 1,

@@ -33,6 +33,7 @@ from matplotlib.axes import Axes  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 from numpy.typing import ArrayLike, NDArray  # noqa: E402
 
+from mitsar.checks import positive  # noqa: E402
 from mitsar.errors import MitsarError  # noqa: E402
 from mitsar.focus.compression import range_compress  # noqa: E402
 from mitsar.focus.grid import equivalent_position  # noqa: E402
@@ -456,6 +457,9 @@ def plot_file(path: str | os.PathLike, out: str | os.PathLike, overwrite: bool =
     Path
         The figure file.
     """
+    if dynamic_range_db is not None:
+        dynamic_range_db = positive("plot_file", "dynamic_range_db (--dynamic-range)",
+                                    dynamic_range_db, "a colour scale depth > 0 dB")
     check_writable(out, overwrite)
     product = load(path)
     kind = product.attrs["product"]

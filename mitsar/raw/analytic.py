@@ -10,7 +10,7 @@ since mid-sweep is the centre of the symmetric fast-time interval).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 
 import drjit as dr
 import numpy as np
@@ -20,6 +20,9 @@ from numpy.typing import NDArray
 from tqdm.auto import tqdm
 
 from mitsar.backend import require_llvm
+from mitsar.budget import require_memory
+from mitsar.checks import integer
+from mitsar.checks import seed as check_seed
 from mitsar.errors import ParameterError
 from mitsar.model.geometry.antenna import two_way_pattern
 from mitsar.model.geometry.attitude import Look, antenna_frame
@@ -29,6 +32,7 @@ from mitsar.model.geometry.navigation import (
     resolve_navigation,
 )
 from mitsar.model.geometry.trajectory import Trajectory
+from mitsar.model.noise import check_noise, thermal_noise
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
 from mitsar.model.signal import (
     apparent_beat_frequency,
@@ -39,7 +43,11 @@ from mitsar.model.signal import (
     two_way_delay,
 )
 from mitsar.model.targets import Background, PointTarget
-from mitsar.raw.product import make_raw_product, sweep_geometry
+from mitsar.raw.product import make_raw_product, require_raw_memory, sweep_geometry
+
+STREAM_KERNEL_LANES = 2**16
+"""Samples per kernel launch of :func:`stream_point_targets` (about 60 bytes each in the
+kernel), so that a streamed simulation's memory is one chunk of output, not of lanes."""
 
 TABLE1_AZIMUTH_RESOLUTION = 0.10
 """Azimuth resolution of paper Table 1 [m], the default azimuth size of a background cell."""
@@ -57,6 +65,21 @@ def background_cell_area(radar: Radar, background: Background, platform_position
     cos_incidence = abs(line_of_sight @ normal) / np.linalg.norm(line_of_sight)
     sin_incidence = max(np.sqrt(max(1.0 - cos_incidence**2, 0.0)), 1e-3)
     return radar.range_resolution / sin_incidence * azimuth_resolution
+
+
+def require_background_memory(background: Background, count: int, sweeps: int) -> None:
+    """Refuse a background whose scatterers would not fit in memory (docs/reliability.md §2).
+
+    Per scatterer: position and velocity (48 bytes) and, per sweep it is drawn for (every
+    sweep in ``pulse`` mode), its Gaussian draw, reflectivity, stacked copy and echo amplitude
+    (4 x 16 bytes).
+    """
+    draws = sweeps if background.mode == "pulse" else 1
+    nbytes = float(count) * (96 + 64 * draws) + float(count) * 16 * sweeps
+    require_memory("simulate_point_targets", "background.size", nbytes,
+                   f"{count:.3g} scatterers (size / resolution cell x scatterers_per_cell "
+                   f"{background.scatterers_per_cell}) over {sweeps} sweeps: a smaller patch or "
+                   "fewer scatterers_per_cell")
 
 
 def _check_inputs(radar: Radar, trajectory: Trajectory, look: Look,
@@ -134,6 +157,100 @@ def simulate_point_targets(radar: Radar, trajectory: Trajectory, look: Look,
     >>> raw["raw"].dims
     ('sweep', 'sample')
     """
+    plan = _plan(radar, trajectory, look, targets, background, seed, rvp=rvp,
+                 normalized=normalized, pattern=pattern, noise=noise, backend=backend,
+                 navigation=navigation)
+    sweeps = plan["sweeps"]
+    amplitude = _echo_amplitudes(radar, look, plan["geometry"], plan["positions"],
+                                 plan["velocities"], plan["reflectivity"](sweeps),
+                                 normalized=normalized, pattern=pattern)
+    if not np.any(amplitude):
+        raise _all_zero_error()
+    sum_echoes = _sum_echoes_drjit if backend == "drjit" else _sum_echoes_numpy
+    samples = sum_echoes(radar, trajectory, plan["geometry"], plan["positions"],
+                         plan["velocities"], amplitude, rvp=rvp, progress=progress,
+                         chunk_elements=chunk_elements)
+    if noise:
+        samples += thermal_noise(radar, seed, np.arange(sweeps))
+    return _product(plan, samples, slice(0, sweeps), first=True)
+
+
+def stream_point_targets(radar: Radar, trajectory: Trajectory, look: Look,
+                         targets: Sequence[PointTarget] = (),
+                         background: Background | None = None, seed: int = 0, *,
+                         rvp: bool = True, normalized: bool = False, pattern: bool = True,
+                         noise: bool = False, progress: bool = False, backend: str = "drjit",
+                         sweeps_per_chunk: int = 1024,
+                         navigation: Trajectory | NavigationErrors | None = None
+                         ) -> Iterator[xr.Dataset]:
+    """:func:`simulate_point_targets` chunk by chunk of sweeps, for products larger than memory.
+
+    Yields raw products of ``sweeps_per_chunk`` consecutive sweeps (the last one shorter) whose
+    ``sweep`` coordinate counts from the acquisition's first sweep; concatenated along
+    ``sweep`` they are the product :func:`simulate_point_targets` makes with the same
+    arguments (the same samples: the background is drawn in the same order, and the thermal
+    noise of a sample depends only on the seed and its sweep and sample index). Variables
+    without a ``sweep`` dimension (targets, background draw) come with the first chunk only.
+    Memory: the per-sweep geometry of the whole pass (a few hundred bytes a sweep) plus one
+    chunk's samples, amplitudes and kernel lanes.
+
+    Parameters
+    ----------
+    sweeps_per_chunk : int
+        Sweeps per yielded chunk (>= 1).
+    Other parameters
+        As for :func:`simulate_point_targets`.
+
+    Raises
+    ------
+    ParameterError
+        As :func:`simulate_point_targets` (an all-zero acquisition after the last chunk).
+    """
+    sweeps_per_chunk = integer("stream_point_targets", "sweeps_per_chunk", sweeps_per_chunk, 1)
+    plan = _plan(radar, trajectory, look, targets, background, seed, rvp=rvp,
+                 normalized=normalized, pattern=pattern, noise=noise, backend=backend,
+                 navigation=navigation, budget_sweeps=sweeps_per_chunk)
+    sweeps, geometry = plan["sweeps"], plan["geometry"]
+    sum_echoes = _sum_echoes_drjit if backend == "drjit" else _sum_echoes_numpy
+    any_echo = False
+    for start in tqdm(range(0, sweeps, sweeps_per_chunk), disable=not progress,
+                      desc="simulate", unit="chunk"):
+        part = slice(start, min(start + sweeps_per_chunk, sweeps))
+        chunk_geometry = {key: value[part] for key, value in geometry.items()}
+        amplitude = _echo_amplitudes(radar, look, chunk_geometry, plan["positions"],
+                                     plan["velocities"], plan["reflectivity"](part.stop - start),
+                                     normalized=normalized, pattern=pattern)
+        any_echo = any_echo or bool(np.any(amplitude))
+        samples = sum_echoes(radar, trajectory, chunk_geometry, plan["positions"],
+                             plan["velocities"], amplitude, rvp=rvp, progress=False,
+                             chunk_elements=STREAM_KERNEL_LANES)
+        if noise:
+            samples += thermal_noise(radar, seed, np.arange(part.start, part.stop))
+        yield _product(plan, samples, part, first=start == 0)
+    if not any_echo:
+        raise _all_zero_error()
+
+
+def _all_zero_error() -> ParameterError:
+    return ParameterError(
+        "simulate_point_targets", "targets", "echoes inside the antenna beam in some sweep "
+        "(every target and background scatterer has a zero two-way pattern or RCS: check "
+        "the look angles and the positions, or pattern=False)", "raw data of exact zeros")
+
+
+def _plan(radar: Radar, trajectory: Trajectory, look: Look, targets: Sequence[PointTarget],
+          background: Background | None, seed: int, *, rvp: bool, normalized: bool,
+          pattern: bool, noise: bool, backend: str,
+          navigation: Trajectory | NavigationErrors | None,
+          budget_sweeps: int | None = None) -> dict:
+    """Checks, geometry, scatterers and product metadata of an analytic simulation.
+
+    ``budget_sweeps``: sweeps held in memory at once (default all; a streamed simulation holds
+    one chunk), for the memory checks.
+
+    ``reflectivity(n)`` draws the complex sqrt(RCS) of every scatterer for the next ``n``
+    sweeps, shape (n, scatterers), in the order a single draw of all sweeps would make.
+    """
     if isinstance(targets, PointTarget):
         raise ParameterError("simulate_point_targets", "targets", "a list of mitsar.PointTarget "
                              "(wrap a single target: [target])", "one PointTarget")
@@ -143,61 +260,54 @@ def simulate_point_targets(radar: Radar, trajectory: Trajectory, look: Look,
         raise ParameterError("simulate_point_targets", "targets", "a list of mitsar.PointTarget",
                              type(targets)) from None
     _check_inputs(radar, trajectory, look, targets, background)
+    seed = check_seed("simulate_point_targets", "seed", seed)
     if backend not in ("drjit", "numpy"):
         raise ParameterError("simulate_point_targets", "backend", "'drjit' or 'numpy'", backend)
     radar.check_prf(trajectory.max_speed())
-    if noise and radar.noise_figure_db is None:
-        raise ParameterError("simulate_point_targets", "noise",
-                             "noise=False unless radar.noise_figure_db is set", noise)
-    if noise and normalized:
-        raise ParameterError("simulate_point_targets", "noise",
-                             "noise=False with normalized=True (noise is in watts, normalised "
-                             "echoes are not)", noise)
+    check_noise("simulate_point_targets", radar, noise, normalized)
     sweeps = sweep_count(radar, trajectory.duration)
     if sweeps < 1:
         raise ParameterError("simulate_point_targets", "trajectory.duration",
                              f">= one sweep ({radar.sweep_duration:g} s)", trajectory.duration)
+    held = sweeps if budget_sweeps is None else min(sweeps, budget_sweeps)
+    require_raw_memory("simulate_point_targets", radar, held)
     rng = np.random.default_rng(seed)
     geometry = sweep_geometry(radar, trajectory, look, sweeps)
     recorded = resolve_navigation("simulate_point_targets", trajectory, navigation)
 
     positions = np.array([t.position for t in targets], dtype=float).reshape(-1, 3)
     velocities = np.array([t.velocity for t in targets], dtype=float).reshape(-1, 3)
-    reflectivity = np.broadcast_to(np.sqrt([t.rcs for t in targets]),
-                                   (sweeps, len(targets))).astype(complex)
+    target_reflectivity = np.sqrt(np.array([t.rcs for t in targets], dtype=float))
     extra_attrs: dict = {}
     background_draw = None
     if background is not None:
         mid = geometry["position"][sweeps // 2]
         cell_area = background_cell_area(radar, background, mid)
         count = background.scatterer_count(cell_area)
+        require_background_memory(background, count, held)
         background_positions = background.draw_positions(count, rng)
-        shape = (sweeps, count) if background.mode == "pulse" else (count,)
-        background_reflectivity = np.broadcast_to(
-            background.draw_reflectivities(shape, rng, cell_area), (sweeps, count))
+        frozen = (None if background.mode == "pulse"
+                  else background.draw_reflectivities((count,), rng, cell_area))
         positions = np.vstack([positions, background_positions])
         velocities = np.vstack([velocities, np.zeros((count, 3))])
-        reflectivity = np.hstack([reflectivity, background_reflectivity])
-        background_draw = (background_positions, background_reflectivity[0])
+        background_draw = [background_positions, frozen]
         extra_attrs.update(background_scatterers=count, background_cell_area=cell_area,
                            background_mode=background.mode,
                            background_cell_rcs_db=background.cell_rcs_db)
 
     _check_beat_frequencies(radar, geometry, positions, velocities, len(targets))
-    amplitude = _echo_amplitudes(radar, look, geometry, positions, velocities, reflectivity,
-                                 normalized=normalized, pattern=pattern)
-    if not np.any(amplitude):
-        raise ParameterError(
-            "simulate_point_targets", "targets", "echoes inside the antenna beam in some sweep "
-            "(every target and background scatterer has a zero two-way pattern or RCS: check "
-            "the look angles and the positions, or pattern=False)", "raw data of exact zeros")
-    sum_echoes = _sum_echoes_drjit if backend == "drjit" else _sum_echoes_numpy
-    samples = sum_echoes(radar, trajectory, geometry, positions, velocities, amplitude, rvp=rvp,
-                         progress=progress, chunk_elements=chunk_elements)
-    if noise:
-        sigma = np.sqrt(radar.noise_power / 2)
-        samples += sigma * (rng.standard_normal(samples.shape)
-                            + 1j * rng.standard_normal(samples.shape))
+
+    def reflectivity(n: int) -> NDArray[np.complex128]:
+        parts = [np.broadcast_to(target_reflectivity, (n, len(targets))).astype(complex)]
+        if background_draw is not None:
+            count = len(background_draw[0])
+            drawn = (background.draw_reflectivities((n, count), rng, cell_area)
+                     if background.mode == "pulse" else background_draw[1])
+            drawn = np.broadcast_to(drawn, (n, count))
+            if background_draw[1] is None:
+                background_draw[1] = np.array(drawn[0])  # first sweep, for the record
+            parts.append(drawn)
+        return np.hstack(parts)
 
     config = {"targets": [{"position": list(t.position), "rcs": t.rcs,
                            "velocity": list(t.velocity)} for t in targets],
@@ -209,16 +319,36 @@ def simulate_point_targets(radar: Radar, trajectory: Trajectory, look: Look,
                   "scatterers_per_cell": background.scatterers_per_cell,
                   "mode": background.mode, "axis_u": list(background.axis_u),
                   "axis_v": list(background.axis_v)}}
+    attrs = {"seed": int(seed), "normalized": int(normalized), "pattern": int(pattern),
+             "noise": int(noise), "simulator": "analytic point targets",
+             "trajectory_kind": (trajectory if recorded is None else recorded).kind,
+             "trajectory_straight": int((trajectory if recorded is None
+                                         else recorded).is_straight), "config": config,
+             **extra_attrs}
+    if noise:  # docs/metrics.md §Noise
+        attrs.update(noise_power=radar.noise_power, noise_seed=int(seed))
+    return {"sweeps": sweeps, "geometry": geometry, "rng": rng, "positions": positions,
+            "velocities": velocities, "reflectivity": reflectivity, "targets": targets,
+            "background_draw": background_draw, "attrs": attrs, "radar": radar, "look": look,
+            "rvp": rvp, "recorded_geometry": None if recorded is None
+            else sweep_geometry(radar, recorded, look, sweeps)}
+
+
+def _product(plan: dict, samples: NDArray, part: slice, first: bool) -> xr.Dataset:
+    """The raw product of the sweeps ``part`` (:func:`make_raw_product`); with ``first`` also
+    the variables without a sweep dimension."""
+    def cut(geometry: dict | None) -> dict | None:
+        return None if geometry is None else {k: v[part] for k, v in geometry.items()}
+
+    geometry, recorded = cut(plan["geometry"]), cut(plan["recorded_geometry"])
     product = make_raw_product(
-        samples, radar, look, geometry if recorded is None
-        else sweep_geometry(radar, recorded, look, sweeps), rvp=rvp,
-        true_geometry=None if recorded is None else geometry,
-        attrs={"seed": int(seed), "normalized": int(normalized), "pattern": int(pattern),
-               "noise": int(noise), "simulator": "analytic point targets",
-               "trajectory_kind": (trajectory if recorded is None else recorded).kind,
-               "trajectory_straight": int((trajectory if recorded is None
-                                           else recorded).is_straight), "config": config,
-               **extra_attrs})
+        samples, plan["radar"], plan["look"], geometry if recorded is None else recorded,
+        rvp=plan["rvp"], true_geometry=None if recorded is None else geometry,
+        attrs=plan["attrs"])
+    product = product.assign_coords(sweep=np.arange(part.start, part.start + len(samples)))
+    if not first:
+        return product
+    targets, background_draw = plan["targets"], plan["background_draw"]
     product["target_position"] = (("target", "xyz"), np.array(
         [t.position for t in targets], dtype=float).reshape(-1, 3), {"units": "m"})
     product["target_rcs"] = (("target",), np.array([t.rcs for t in targets], dtype=float),

@@ -32,6 +32,7 @@ import numpy as np
 import xarray as xr
 from numpy.typing import ArrayLike
 
+from mitsar.budget import require_memory
 from mitsar.model.geometry.attitude import Look, boresight
 from mitsar.model.geometry.trajectory import Trajectory
 from mitsar.model.radar import Radar
@@ -46,6 +47,25 @@ TRACK_VARIABLES = (
 )
 """Per-sweep track variables: (name, :func:`sweep_geometry` key, second dim, units); the true
 track's carry the prefix ``true_``."""
+
+
+RAW_BYTES_PER_SAMPLE = 48
+"""Peak bytes per raw sample: the complex128 samples, one chunk or noise copy and the product's
+copy on writing (3 x 16 bytes); plus ``GEOMETRY_BYTES_PER_SWEEP`` per sweep."""
+
+GEOMETRY_BYTES_PER_SWEEP = 512
+"""Per-sweep geometry (times, positions, velocities, boresights, attitude, frames; float64)."""
+
+
+def require_raw_memory(where: str, radar: Radar, sweeps: int) -> None:
+    """Refuse, before any work, raw data of ``sweeps`` sweeps that would not fit in memory
+    (:func:`mitsar.budget.require_memory`; docs/reliability.md §2)."""
+    samples = radar.samples_per_sweep
+    require_memory(where, "trajectory.duration",
+                   float(sweeps) * (samples * RAW_BYTES_PER_SAMPLE + GEOMETRY_BYTES_PER_SWEEP),
+                   f"{sweeps} sweeps (duration x prf) x {samples} samples "
+                   "(sampling_frequency / prf): shorten the flight, or lower the PRF or the "
+                   "sampling frequency")
 
 
 def sweep_geometry(radar: Radar, trajectory: Trajectory, look: Look,

@@ -29,16 +29,20 @@ attributes
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
+import warnings
 from collections.abc import Iterator, Sequence
 from typing import Any
 
 import numpy as np
 import xarray as xr
 from numpy.typing import NDArray
+from tqdm.auto import tqdm
 
-from mitsar.errors import ParameterError
+from mitsar.budget import require_memory
+from mitsar.errors import MitsarWarning, ParameterError
 from mitsar.model import histogram as hg
 from mitsar.model.geometry.attitude import Look, antenna_frame
 from mitsar.model.geometry.navigation import (
@@ -47,15 +51,19 @@ from mitsar.model.geometry.navigation import (
     resolve_navigation,
 )
 from mitsar.model.geometry.trajectory import Trajectory
+from mitsar.model.noise import check_noise, thermal_noise
 from mitsar.model.radar import Radar
 from mitsar.model.signal import sweep_count
 from mitsar.model.targets import Background, PointTarget
 from mitsar.plugins.integrators.radar import make_setup
 from mitsar.raw.analytic import simulate_point_targets
+from mitsar.raw.physical_optics import FacetEchoes
 from mitsar.raw.product import (
+    GEOMETRY_BYTES_PER_SWEEP,
     look_of,
     make_raw_product,
     radar_of,
+    require_raw_memory,
     sweep_geometry,
     track_geometry,
     track_variables,
@@ -68,6 +76,8 @@ from mitsar.scene import (
     range_limits,
     register_plugins,
 )
+from mitsar.scene.facets import FacetSet, scene_facets
+from mitsar.scene.motion import SceneMotion, parse_motion, surface_velocities
 from mitsar.version import __version__
 
 __all__ = ["histogram_to_raw_product", "simulate_scene", "trace", "trace_paths"]
@@ -96,7 +106,9 @@ class _Run:
                  scene_params: dict | None, multipath: dict | None = None,
                  receiver_offset: Any = None, receiver_look: Look | None = None,
                  backscatter: bool = True,
-                 navigation: Trajectory | NavigationErrors | None = None) -> None:
+                 navigation: Trajectory | NavigationErrors | None = None,
+                 motion: dict | None = None,
+                 physical_optics: bool | Sequence[str] | None = False) -> None:
         if not isinstance(radar, Radar):
             raise ParameterError(where, "radar", "a mitsar.Radar", type(radar))
         if not isinstance(trajectory, Trajectory):
@@ -108,7 +120,10 @@ class _Run:
         if total < 1:
             raise ParameterError(where, "trajectory.duration",
                                  f">= one sweep ({radar.sweep_duration:g} s)", trajectory.duration)
+        require_memory(where, "trajectory.duration", 2.0 * total * GEOMETRY_BYTES_PER_SWEEP,
+                       f"{total} sweeps (duration x prf): shorten the flight")
         self.sweeps = _select_sweeps(where, sweeps, total)
+        require_raw_memory(where, radar, len(self.sweeps))
         register_plugins()
         import mitsuba as mi  # lazy: a variant is set by register_plugins just above
 
@@ -141,21 +156,93 @@ class _Run:
                                                 self.config.density(radar), self.config.seed)
         else:  # multipath only: no surface scatterers to sample
             self.scatterers = empty_scatterers(self.config.density(radar), self.config.seed)
+        # Moving shapes (docs/integrator.md §Moving objects): their scatterers get their velocity.
+        self.motion = SceneMotion(where, self.scene, parse_motion(where, motion))
+        if self.motion.moving:
+            self.scatterers = _moving_scatterers(self.scatterers, surface_velocities(
+                self.scene, self.motion.motion))
+        facets = self._facets(where, physical_optics)
         low, high = range_limits(self.scatterers, self.geometry["position"],
                                  trajectory.max_speed(), radar, trajectory.duration)
         if self.config.max_depth > 1:
             low, high = _multipath_limits(self.scene, self.geometry["position"], low, high,
                                           radar, trajectory.max_speed(), self.config.max_depth,
                                           self.setup.receiver_offset)
+        if facets is not None:
+            low, high = _facet_limits(facets.triangles, self.geometry["position"], low, high,
+                                      radar, trajectory.max_speed() + self.motion.max_speed())
         self.grid = hg.bin_grid(radar, low, high, self.config.bins_per_cell)
         self.ranges = hg.bin_ranges(radar, *self.grid, self.config.bins_per_cell)
+        # Physical optics (docs/physical_optics.md §5): chains of up to max_depth - 1 facets
+        # (at least the single facets), at order = their length; the tracer's rays stop on the
+        # same shapes, so no specular path through them is counted twice.
+        self.facet_echoes = None if facets is None else FacetEchoes(
+            radar, self.scene, facets, self.geometry, self.frames, self.ranges,
+            self.config.bins_per_cell, max(1, self.config.max_depth - 1),
+            surface_velocities(self.scene, self.motion.motion)[list(facets.surface_index)],
+            self.config.beam_cull)
+        self.orders = max(self.config.max_depth, 1 if facets is None else 2)
+
+    def _facets(self, where: str, physical_optics: Any) -> FacetSet | None:
+        """The facets that use physical optics, or None; their shapes stop multipath rays."""
+        if physical_optics is False or physical_optics is None:
+            return None
+        if self.setup.bistatic or self.setup.planar:
+            raise ParameterError(where, "physical_optics", "false with a bistatic receiver or "
+                                 "in 2D mode (physical optics is monostatic and 3-D)",
+                                 physical_optics)
+        facets = scene_facets(self.scene, physical_optics)
+        if len(facets) == 0:          # True, and no mesh with a radar material
+            return None
+        self.setup = dataclasses.replace(self.setup, absorbers=facets.shapes)
+        return facets
 
     def chunks(self, rvp: bool, normalized: bool, progress: bool
                ) -> Iterator[tuple[NDArray, NDArray]]:
-        return self.integrator.trace_histograms(
-            self.scene, self.geometry, self.radar, self.frames, self.scatterers, self.grid,
-            sweeps=self.sweeps, config=self.config, rvp=rvp, normalized=normalized,
-            progress=progress, setup=self.setup, backscatter=self.backscatter)
+        """(sweep indices, histograms (sweeps, orders, bins)) chunk by chunk: the tracer's,
+        plus the physical-optics echoes of the same sweeps (one path for :func:`trace` and
+        :func:`simulate_scene`)."""
+        if self.motion.moving:
+            source = self._moving_chunks(rvp, normalized, progress)
+        else:
+            source = self.integrator.trace_histograms(
+                self.scene, self.geometry, self.radar, self.frames, self.scatterers, self.grid,
+                sweeps=self.sweeps, config=self.config, rvp=rvp, normalized=normalized,
+                progress=progress, setup=self.setup, backscatter=self.backscatter)
+        for chosen, hist in source:
+            if self.facet_echoes is None:
+                yield chosen, hist
+                continue
+            # the scene is in the state of these sweeps here (the moving generator is
+            # suspended inside its sweep), so the PO shadow rays see the shapes where they are
+            po = self.facet_echoes.histogram(chosen, self.orders, rvp, normalized)
+            po[:, :hist.shape[1]] += hist
+            yield chosen, po
+
+    def _moving_chunks(self, rvp: bool, normalized: bool, progress: bool
+                       ) -> Iterator[tuple[NDArray, NDArray]]:
+        """One scene state per sweep: the moving shapes are put where they are at mid-sweep,
+        the time at which the integrator places the scatterers and casts the shadow rays, so
+        a scatterer on a moving face stays on its visible side (the shadow ray's end sits only
+        ``SURFACE_OFFSET (1 + |p|)``, ~0.4 mm, above it, less than the 2 mm a 0.5 m/s shape
+        moves in a 4 ms sweep: blocks of several sweeps would shadow moving faces by
+        themselves). Static scenes keep the chunked path of :meth:`chunks`."""
+        totals: dict[str, int] = {}
+        try:
+            for sweep in tqdm(self.sweeps, disable=not progress, desc="trace (moving shapes)",
+                              unit="sweep"):
+                self.motion.set_time(float(self.geometry["slow_time"][sweep])
+                                     + self.radar.sweep_duration / 2)
+                yield from self.integrator.trace_histograms(
+                    self.scene, self.geometry, self.radar, self.frames, self.scatterers,
+                    self.grid, sweeps=np.array([sweep]), config=self.config, rvp=rvp,
+                    normalized=normalized, progress=False, setup=self.setup,
+                    backscatter=self.backscatter)
+                for key, value in self.integrator.statistics.items():
+                    totals[key] = totals.get(key, 0) + value
+        finally:
+            self.motion.reset()
+            self.integrator.statistics = totals
 
     def attrs(self) -> dict[str, Any]:
         return {"seed": int(self.config.seed), "scatterer_count": self.scatterers.surface_count,
@@ -167,6 +254,11 @@ class _Run:
                 **{f"traced_{key}": int(value)
                    for key, value in self.integrator.statistics.items()},
                 "backscatter": int(self.backscatter),
+                **({} if self.facet_echoes is None else {
+                    "physical_optics_shapes": list(self.facet_echoes.facets.shape_ids),
+                    "physical_optics_subfacets": len(self.facet_echoes),
+                    "physical_optics_chains": self.facet_echoes.chain_counts}),
+                "motion": {key: list(value) for key, value in self.motion.motion.items()},
                 "receiver_offset": [float(v) for v in self.setup.receiver_offset],
                 "rays_per_sweep": 0 if self.setup.rays is None else len(self.setup.rays),
                 "trajectory_kind": (self.recorded or self.trajectory).kind,
@@ -180,6 +272,28 @@ class _Run:
         if self.recorded_geometry is None:
             return true, None
         return {key: value[sweeps] for key, value in self.recorded_geometry.items()}, true
+
+
+def _moving_scatterers(scatterers: ScattererSet, shape_velocities: NDArray) -> ScattererSet:
+    """A copy of a scatterer set whose surface scatterers move with their shape (row
+    ``table_row`` = ``shape_index`` of :func:`mitsar.scene.surfaces.scene_surfaces`)."""
+    velocity = scatterers.velocity.copy()
+    surface = scatterers.surface_count
+    velocity[:surface] = shape_velocities[scatterers.table_row[:surface]]
+    return dataclasses.replace(scatterers, velocity=velocity, device={})
+
+
+def _facet_limits(triangles: NDArray, positions: NDArray, low: float, high: float,
+                  radar: Radar, max_speed: float) -> tuple[float, float]:
+    """Widen the apparent-range limits to the PO facets' ranges (single facets; chains lie
+    within the multipath limits), with the Doppler margin of :func:`_multipath_limits`."""
+    lo, hi = triangles.reshape(-1, 3).min(axis=0), triangles.reshape(-1, 3).max(axis=0)
+    nearest = np.linalg.norm(positions - np.clip(positions, lo, hi), axis=1).min()
+    corners = np.array(np.meshgrid(*zip(lo, hi, strict=True), indexing="ij")).reshape(3, -1).T
+    farthest = np.linalg.norm(positions[:, None, :] - corners[None], axis=-1).max()
+    margin = (radar.carrier_frequency / radar.chirp_rate) * 2.0 * max_speed \
+        + 2 * radar.range_resolution
+    return min(low, nearest - margin), max(high, min(farthest, radar.max_range) + margin)
 
 
 def _multipath_limits(scene: Any, positions: NDArray, low: float, high: float, radar: Radar,
@@ -253,7 +367,9 @@ def trace(radar: Radar, trajectory: Trajectory, look: Look, scene: Any, *,
           ghosts: bool | None = None, plane_normal: Any = None,
           slab_width: float | None = None, receiver_offset: Any = None,
           receiver_look: Look | None = None, backscatter: bool = True,
-          navigation: Trajectory | NavigationErrors | None = None) -> xr.Dataset:
+          navigation: Trajectory | NavigationErrors | None = None,
+          visibility_feature: float | None = None, motion: dict | None = None,
+          physical_optics: bool | Sequence[str] = False) -> xr.Dataset:
     """Ray-trace an acquisition of a Mitsuba scene into range histograms.
 
     Parameters
@@ -314,6 +430,22 @@ def trace(radar: Radar, trajectory: Trajectory, look: Look, scene: Any, *,
     navigation : Trajectory or NavigationErrors, optional
         What the navigation system records (``trajectory`` is then the true track); see
         :func:`mitsar.simulate_point_targets`.
+    visibility_feature : float, optional
+        Smallest occluder (or gap) width [m] that the reuse of shadow rays across sweeps must
+        resolve (default 0.03; 0: a shadow ray per sweep); docs/integrator.md §"Visibility
+        reuse".
+    motion : dict, optional
+        ``{shape id: [vx, vy, vz]}`` [m/s]: shapes that move during the acquisition, on top of
+        the ``velocity`` properties of the XML's shapes and the moving point targets
+        (:mod:`mitsar.scene.motion`; docs/integrator.md §Moving objects). With any moving
+        shape the scene is traced one sweep at a time, each with the shapes where they are.
+    physical_optics : bool or sequence of str
+        Physical optics of planar facets (docs/physical_optics.md §5): ``True`` for every mesh
+        with a radar material, or the ids of the shapes. Their specular returns come from PO:
+        single facets at order 1 and, with ``max_depth = k > 2``, the bounce chains of up to
+        ``k − 1`` of their facets (dihedrals, trihedrals) at order = chain length; multipath
+        rays stop on these shapes (no path is counted twice). Monostatic, 3-D only; moving
+        shapes carry their facets.
 
     Returns
     -------
@@ -322,9 +454,9 @@ def trace(radar: Radar, trajectory: Trajectory, look: Look, scene: Any, *,
     """
     run = _Run("trace", radar, trajectory, look, scene, density, seed, sweeps, chunk_lanes,
                bins_per_cell, beam_cull, scene_params,
-               _multipath_options(max_depth, rays, ray_cover, capture, ghosts, plane_normal,
-                                  slab_width), receiver_offset, receiver_look, backscatter,
-               navigation)
+               {**_multipath_options(max_depth, rays, ray_cover, capture, ghosts, plane_normal,
+                                     slab_width), "visibility_feature": visibility_feature},
+               receiver_offset, receiver_look, backscatter, navigation, motion, physical_optics)
     parts, indices = [], []
     for chosen, hist in run.chunks(rvp, normalized, progress):
         indices.append(chosen)
@@ -531,7 +663,10 @@ def simulate_scene(radar: Radar, trajectory: Trajectory, look: Look, scene: Any,
                    rays: int | None = None, ray_cover: float | None = None,
                    capture: str | None = None, ghosts: bool | None = None,
                    plane_normal: Any = None, slab_width: float | None = None,
-                   navigation: Trajectory | NavigationErrors | None = None) -> xr.Dataset:
+                   navigation: Trajectory | NavigationErrors | None = None,
+                   noise: bool = False,
+                   physical_optics: bool | Sequence[str] = False,
+                   motion: dict | None = None) -> xr.Dataset:
     """Raw data of a Mitsuba scene: trace, synthesise (streaming), add analytic targets.
 
     Histograms are turned into raw sweeps chunk by chunk, so memory stays bounded by the chunk
@@ -553,6 +688,15 @@ def simulate_scene(radar: Radar, trajectory: Trajectory, look: Look, scene: Any,
     scene_params, progress, max_depth, rays, ray_cover, capture, ghosts, plane_normal,
     slab_width, navigation
         As :func:`trace` (monostatic).
+    noise : bool
+        Add receiver noise ``k T0 F f_s`` per complex sample (needs ``radar.noise_figure_db``),
+        drawn by :func:`mitsar.model.noise.thermal_noise` from the run's seed and each sample's
+        sweep and index (so a subset of ``sweeps`` gets the same noise as in the full run).
+    physical_optics : bool or sequence of str
+        Physical-optics specular returns of planar facets and their bounce chains, as
+        :func:`trace` (docs/physical_optics.md §5).
+    motion : dict, optional
+        Moving shapes, as :func:`trace`.
 
     Returns
     -------
@@ -562,8 +706,10 @@ def simulate_scene(radar: Radar, trajectory: Trajectory, look: Look, scene: Any,
     run = _Run("simulate_scene", radar, trajectory, look, scene, density, seed, sweeps,
                chunk_lanes, bins_per_cell, beam_cull, scene_params,
                _multipath_options(max_depth, rays, ray_cover, capture, ghosts, plane_normal,
-                                  slab_width), navigation=navigation)
+                                  slab_width), navigation=navigation, motion=motion,
+               physical_optics=physical_optics)
     _order_mask("simulate_scene", orders, np.arange(1))  # validate early
+    check_noise("simulate_scene", radar, noise, normalized)
     samples = np.zeros((len(run.sweeps), radar.samples_per_sweep), dtype=np.complex128)
     row = 0
     kept = np.arange(0)
@@ -583,6 +729,16 @@ def simulate_scene(radar: Radar, trajectory: Trajectory, look: Look, scene: Any,
         samples += analytic["raw"].values[run.sweeps]
         attrs["simulator"] += " + analytic point targets"
         attrs["analytic_config"] = analytic.attrs.get("config", "{}")
+    if not np.any(samples):
+        warnings.warn(f"simulate_scene: raw data of exact zeros: nothing of the scene is in the "
+                      f"beam ({attrs['scatterer_count']} surface scatterers, "
+                      f"{attrs['point_target_count']} point targets, orders {attrs['orders']}): "
+                      "check the look angles, the trajectory, the materials and the orders",
+                      MitsarWarning, stacklevel=2)
+    attrs["noise"] = int(noise)
+    if noise:
+        samples += thermal_noise(radar, attrs["seed"], run.sweeps)
+        attrs.update(noise_power=radar.noise_power, noise_seed=int(attrs["seed"]))
     recorded, true = run.geometry_of(run.sweeps)
     product = make_raw_product(samples, radar, look, recorded, rvp=rvp, attrs=attrs,
                                true_geometry=true)

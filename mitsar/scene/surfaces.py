@@ -21,6 +21,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from mitsar.budget import require_memory
 from mitsar.errors import ParameterError
 from mitsar.model.doublelobe import DoubleLobe
 
@@ -219,6 +220,11 @@ def _stratified_unit_square(n: int, aspect: float, rng: np.random.Generator) -> 
     return np.stack([(ix + jitter[0]) / nx, (iy + jitter[1]) / ny])
 
 
+SCATTERER_BYTES = 256
+"""Peak bytes per surface scatterer: its NumPy record (68 bytes), the sampler's temporaries,
+the device copies and the beam-culling lanes of the tracer."""
+
+
 def sample_surface_scatterers(scene: Any, density_per_m2: float,
                               seed: int = 0) -> SurfaceScatterers:
     """Sample a fixed set of scatterers on every radar surface of a scene (docs/design.md §5.4).
@@ -249,6 +255,10 @@ def sample_surface_scatterers(scene: Any, density_per_m2: float,
     if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
         raise ParameterError("sample_surface_scatterers", "seed", "an integer >= 0", seed)
     surfaces = scene_surfaces(scene)
+    total = sum(density * s.area for s in surfaces if s.material is not None and s.area > 0)
+    require_memory("sample_surface_scatterers", "scatterer_density",
+                   total * SCATTERER_BYTES, f"{total:.3g} scatterers (density "
+                   f"{density:g} per m² x the radar surfaces' area): lower the density")
     pos, nrm, area, index, phase = [], [], [], [], []
     for surface in surfaces:
         if surface.material is None or surface.area <= 0.0:
@@ -338,6 +348,11 @@ class SurfaceSamples:
     names: tuple[str, ...]
 
 
+POINT_BYTES = 256
+"""Peak bytes per surface point of a regular grid: its coordinates, normal, area and the
+per-point maps of the ambiguity products."""
+
+
 def unit_grid(count_u: int, count_v: int) -> tuple[np.ndarray, np.ndarray]:
     """Cell centres of a ``count_u`` × ``count_v`` grid on the unit square, v running fastest.
 
@@ -357,8 +372,11 @@ def regular_grid(extent_u: float, extent_v: float, spacing: float
     The counts are ``max(1, round(extent / spacing))`` per edge, so the step is close to
     ``spacing`` [m] and every cell has the same area; see :func:`unit_grid`.
     """
-    return unit_grid(max(1, int(round(extent_u / spacing))),
-                     max(1, int(round(extent_v / spacing))))
+    count_u, count_v = (max(1.0, round(extent / spacing)) for extent in (extent_u, extent_v))
+    require_memory("regular_grid (surface points)", "spacing", count_u * count_v * POINT_BYTES,
+                   f"{count_u * count_v:.3g} points on a {extent_u:g} m x {extent_v:g} m "
+                   f"surface at {spacing:g} m: a coarser spacing")
+    return unit_grid(int(count_u), int(count_v))
 
 
 def _triangle_points(vertices: np.ndarray, faces: np.ndarray, spacing: float,
@@ -472,6 +490,9 @@ def sample_surface_points(scene: Any, spacing: float, *, shapes: Sequence[str] |
     if shapes is not None and (unknown := sorted(set(shapes) - set(found))):
         raise ParameterError("sample_surface_points", "shapes", f"shape ids among {found}",
                              unknown)
+    total = sum(s.area for _, s in named if s.area > 0) / float(spacing) ** 2
+    require_memory("sample_surface_points", "spacing", total * POINT_BYTES,
+                   f"{total:.3g} points (the scene's area / spacing²): a coarser spacing")
     pos, nrm, area, index, names = [], [], [], [], []
     for name, surface in named:
         if ((shapes is not None and name not in shapes) or name in exclude

@@ -17,6 +17,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from mitsar.checks import MAX_LEVEL_DB
 from mitsar.errors import ParameterError
 from mitsar.model.doublelobe.lobes import (
     _FOUR_PI,
@@ -202,9 +203,9 @@ class DoubleLobe:
                 raise ParameterError(where, field_name, expected, getattr(self, field_name))
             set_(field_name, value)
         if self.sigma0_db is not None:
-            expected = "None or a level in dB (finite or -inf)"
+            expected = f"None or a level in dB <= {MAX_LEVEL_DB:g} (finite or -inf)"
             value = _as_real(where, "sigma0_db", self.sigma0_db, expected)
-            if math.isnan(value) or value == math.inf:
+            if math.isnan(value) or value > MAX_LEVEL_DB:
                 raise ParameterError(where, "sigma0_db", expected, self.sigma0_db)
             set_("sigma0_db", value)
         if self.sigma0_law not in SIGMA0_LAWS:

@@ -7,6 +7,7 @@ cubic Hermite interpolation). All are evaluated vectorised on arrays of times [s
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -15,11 +16,27 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.interpolate import CubicHermiteSpline, CubicSpline
 
 from mitsar.checks import positive, vector
-from mitsar.errors import ParameterError
+from mitsar.errors import MitsarWarning, ParameterError
 from mitsar.model.geometry.flight import sample_flight
 
 _VECTOR = "3 finite numbers [m or m/s]"
 """Expectation of the 3-vector arguments (start, velocity) in error messages."""
+
+
+VERTICAL_WARNING = ("Trajectory: a vertical track or leg has no horizontal velocity, so its "
+                    "heading is undefined and taken as 0 (the antenna frame faces +x); give the "
+                    "attitude explicitly (kind = 'navigation' with attitude_deg) if that is not "
+                    "meant")
+"""Warning of :meth:`Trajectory.linear` and :meth:`Trajectory.waypoints` for vertical motion."""
+
+
+def is_vertical(steps: NDArray[np.float64]) -> bool:
+    """True if any non-zero row of ``steps`` (n, 3) (velocities or leg vectors) has no
+    horizontal component (below 1e-6 of its length): the velocity-aligned heading is undefined
+    there. Zero rows are left to the callers' own checks."""
+    steps = np.asarray(steps, dtype=float)
+    length = np.linalg.norm(steps, axis=1)
+    return bool(np.any((length > 0) & ~(np.hypot(steps[:, 0], steps[:, 1]) > 1e-6 * length)))
 
 
 @dataclass(frozen=True)
@@ -72,6 +89,8 @@ class Trajectory:
         if not np.linalg.norm(velocity) > 0:
             raise ParameterError("Trajectory", "velocity", "a non-zero velocity [m/s]",
                                  velocity.tolist())
+        if is_vertical(velocity[None]):
+            warnings.warn(VERTICAL_WARNING, MitsarWarning, stacklevel=2)
         times = np.array([0.0, float(duration)])
         positions = np.stack([start, start + velocity * duration])
         return cls("linear", times, positions, np.stack([velocity, velocity]))
@@ -95,6 +114,8 @@ class Trajectory:
         if np.any(legs <= 0):
             raise ParameterError("Trajectory", "points", "distinct consecutive waypoints",
                                  points.tolist())
+        if is_vertical(np.diff(points, axis=0)):
+            warnings.warn(VERTICAL_WARNING, MitsarWarning, stacklevel=2)
         times = np.concatenate([[0.0], np.cumsum(legs) / speed])
         leg_velocity = np.diff(points, axis=0) / np.diff(times)[:, None]
         velocities = np.vstack([leg_velocity, leg_velocity[-1:]])

@@ -29,6 +29,7 @@ from typing import Any
 import drjit as dr
 import mitsuba as mi
 
+from mitsar.checks import MAX_RCS
 from mitsar.errors import ParameterError
 from mitsar.plugins import PerVariant, parse_vector3, plugin_where, read_properties
 
@@ -41,14 +42,14 @@ PARAMETERS: tuple[str, ...] = ("rcs", "velocity")
 
 def parse_rcs(value: Any, where: str) -> float:
     """Check an RCS value: a finite number > 0 [m²]."""
-    expected = "a radar cross section > 0 m² (finite)"
+    expected = f"a radar cross section > 0 and <= {MAX_RCS:.0e} m² (finite)"
     if isinstance(value, bool):
         raise ParameterError(where, "rcs", expected, value)
     try:
         rcs = float(value)
     except (TypeError, ValueError):
         raise ParameterError(where, "rcs", expected, value) from None
-    if not (math.isfinite(rcs) and rcs > 0.0):
+    if not (math.isfinite(rcs) and 0.0 < rcs <= MAX_RCS):
         raise ParameterError(where, "rcs", expected, value)
     return rcs
 
