@@ -4,7 +4,8 @@
 band-pass of the processed azimuth band on straight uniform tracks whose band is narrower than
 the beam (:func:`mitsar.focus.aperture.doppler_bandpass`), ``"pixel"`` weighting by each
 sweep's direction sine otherwise — and the range compression on a zero-padded, sweep-centred
-FFT (:func:`mitsar.focus.compression.range_spectrum`; paper eq. 1).
+FFT (:func:`mitsar.focus.compression.range_spectrum`; paper eq. 1), of only the bins the
+pixels can be looked up in when they are given (:func:`beat_band`).
 
 :func:`normalise` (step 4): division by the weight a full aperture would have
 (:func:`mitsar.focus.aperture.full_aperture_weight`), so that a point of amplitude a focuses to
@@ -35,7 +36,26 @@ from mitsar.model.radar import Radar
 from mitsar.model.signal import fast_time
 from mitsar.raw.product import radar_of
 
-__all__ = ["Prepared", "normalise", "prepare"]
+__all__ = ["Prepared", "beat_band", "normalise", "prepare"]
+
+
+def beat_band(radar: Radar, points: NDArray, positions: NDArray, max_speed: float,
+              range_margin: float = 0.0) -> tuple[float, float]:
+    """Beat frequencies [Hz] at which ``points`` can be looked up from ``positions``.
+
+    Slant ranges between the points' bounding box and the antenna positions bound the beat
+    frequency ``2 K R / c`` (paper eq. 1; nearest point of the box, farthest corner), widened
+    by the largest Doppler shift ``f_c v / K`` (in range), half a metre and ``range_margin``
+    [m].
+    """
+    low_corner, high_corner = points.min(axis=0), points.max(axis=0)
+    nearest = np.clip(positions, low_corner, high_corner)
+    corners = np.array(np.meshgrid(*zip(low_corner, high_corner, strict=True),
+                                   indexing="ij")).reshape(3, -1).T
+    low = np.linalg.norm(positions - nearest, axis=-1).min()
+    high = np.linalg.norm(positions[:, None, :] - corners[None], axis=-1).max()
+    margin = 0.5 + range_margin + radar.carrier_frequency * max_speed / radar.chirp_rate
+    return radar.beat_frequency(max(low - margin, 0.0)), radar.beat_frequency(high + margin)
 
 
 @dataclass
@@ -65,8 +85,8 @@ class Prepared:
 
 
 def prepare(raw: xr.Dataset, *, half_width: float, window: str, range_window: str,
-            remove_rvp: bool, range_upsample: int, band_selection: str | None = None
-            ) -> Prepared:
+            remove_rvp: bool, range_upsample: int, band_selection: str | None = None,
+            points: NDArray | None = None, range_margin: float = 0.0) -> Prepared:
     """Band selection and range compression of a raw product for a BP sum (module docstring).
 
     Parameters
@@ -83,6 +103,12 @@ def prepare(raw: xr.Dataset, *, half_width: float, window: str, range_window: st
         Zero-padding factor of the range FFT.
     band_selection : {"doppler", "pixel"} or None
         Default: "doppler" on straight uniform tracks with a band narrower than the beam.
+    points : ndarray, shape (Q, 3), optional
+        Points that bound the pixels (e.g. the pixels): only the profile bins they can be
+        looked up in are computed (:func:`beat_band`, zoom transform of
+        :func:`mitsar.focus.compression.range_spectrum`).
+    range_margin : float
+        Extra range [m] kept beyond the points' band (FFBP's polar grids reach past them).
 
     Raises
     ------
@@ -116,7 +142,9 @@ def prepare(raw: xr.Dataset, *, half_width: float, window: str, range_window: st
         kernel_half_width, kernel_window = half_width, coefficients
     frequency, profile = range_spectrum(
         samples, radar, window=range_window, remove_rvp=remove_rvp, upsample=range_upsample,
-        rvp_present=bool(raw.attrs.get("rvp", 1)))
+        rvp_present=bool(raw.attrs.get("rvp", 1)),
+        band=None if points is None else beat_band(radar, points, positions,
+                                                   float(speed.max()), range_margin))
     return Prepared(radar=radar, band_selection=band_selection, straight=straight,
                     positions=positions, velocities=velocities, speed=speed, centroid=centroid,
                     mean_speed=mean_speed, mean_centroid=mean_centroid,

@@ -15,8 +15,9 @@ Steps of :func:`focus_bpa`:
 3. back-project (:mod:`mitsar.focus.backprojection`: the profile is read at the beat frequency
    ``K tau + f_c dtau/dt`` of every pixel, Meta 2007 §II-B, and de-rotated by
    ``exp(-j 2 pi f_c tau)``), in pixel chunks, with the Dr.Jit kernel limited per pixel to the
-   sweeps of its aperture on straight tracks (:func:`mitsar.focus.aperture.sweep_window`), or
-   with the NumPy reference;
+   sweeps of its aperture (straight tracks: :func:`mitsar.focus.aperture.sweep_window`; any
+   other track: :func:`curved_sweep_range`, a bound from a coarse search), or with the NumPy
+   reference;
 4. normalise by the weight a full aperture would have
    (:func:`mitsar.focus.aperture.full_aperture_weight`), so a point of amplitude a focuses to a
    peak of about a, and pixels whose aperture runs off the end of the track fade instead of
@@ -32,30 +33,22 @@ from tqdm.auto import tqdm
 
 from mitsar.focus.aperture import aspect_frames, sweep_window
 from mitsar.focus.backprojection import backproject_drjit, backproject_numpy
-from mitsar.focus.bp_setup import normalise, prepare
+from mitsar.focus.bp_setup import beat_band, normalise, prepare
 from mitsar.focus.grid import track_frame
 from mitsar.model.radar import Radar
 
-__all__ = ["crop_to_pixels", "focus_bpa"]
+__all__ = ["crop_to_pixels", "curved_sweep_range", "focus_bpa"]
 
 
 def crop_to_pixels(frequency: NDArray, profile: NDArray, radar: Radar, pixels: NDArray,
                    positions: NDArray, max_speed: float) -> tuple[NDArray, NDArray]:
     """Keep only the profile bins that the pixels can be looked up in.
 
-    Slant ranges between the pixels' bounding box and the antenna positions bound the beat
-    frequencies (nearest point of the box, farthest corner), widened by the largest Doppler
-    shift ``f_c v / K`` (in range) and half a metre.
+    The band of :func:`mitsar.focus.bp_setup.beat_band` (a no-op on profiles that
+    :func:`mitsar.focus.bp_setup.prepare` computed for these pixels already).
     """
-    low_corner, high_corner = pixels.min(axis=0), pixels.max(axis=0)
-    nearest = np.clip(positions, low_corner, high_corner)
-    corners = np.array(np.meshgrid(*zip(low_corner, high_corner, strict=True),
-                                   indexing="ij")).reshape(3, -1).T
-    low = np.linalg.norm(positions - nearest, axis=-1).min()
-    high = np.linalg.norm(positions[:, None, :] - corners[None], axis=-1).max()
-    margin = 0.5 + radar.carrier_frequency * max_speed / radar.chirp_rate
-    keep = np.flatnonzero((frequency >= radar.beat_frequency(max(low - margin, 0.0)))
-                          & (frequency <= radar.beat_frequency(high + margin)))
+    low, high = beat_band(radar, pixels, positions, max_speed)
+    keep = np.flatnonzero((frequency >= low) & (frequency <= high))
     if len(keep) < 2:
         return frequency, profile
     return frequency[keep[0]:keep[-1] + 1], profile[:, keep[0]:keep[-1] + 1]
@@ -96,7 +89,7 @@ def focus_bpa(raw: xr.Dataset, pixels: NDArray, *, half_width: float, window: st
     # 1.-2. band selection and range compression, cropped to the pixels
     bp = prepare(raw, half_width=half_width, window=window, range_window=range_window,
                  remove_rvp=remove_rvp, range_upsample=range_upsample,
-                 band_selection=band_selection)
+                 band_selection=band_selection, points=pixels)
     radar, positions = bp.radar, bp.positions
     frequency, profile = crop_to_pixels(bp.frequency, bp.profile, radar, pixels, positions,
                                         float(bp.speed.max()))
@@ -117,10 +110,12 @@ def focus_bpa(raw: xr.Dataset, pixels: NDArray, *, half_width: float, window: st
         results = [backproject_numpy(*arguments, pixels[c], *common, aspect=_rows(aspect, c))
                    for c in chunks]
     else:
-        ranges = None
         if bp.straight:
             ranges = sweep_window(pixels, origin, direction, bp.mean_speed / radar.prf,
                                   len(positions), bp.mean_centroid, bp.kernel_half_width)
+        else:  # any track: a safe bound from a coarse search (curved_sweep_range)
+            ranges = curved_sweep_range(pixels, positions, bp.velocities, bp.centroid,
+                                        bp.kernel_half_width, aspect)
         results = [backproject_drjit(*arguments, pixels[c], *common,
                                      sweep_range=_rows(ranges, c), aspect=_rows(aspect, c))
                    for c in chunks]
@@ -129,3 +124,101 @@ def focus_bpa(raw: xr.Dataset, pixels: NDArray, *, half_width: float, window: st
     values, coverage = normalise(bp, raw, pixels, np.concatenate(sums), np.concatenate(totals),
                                  half_width)
     return values, coverage, {"band_selection": bp.band_selection}
+
+
+def curved_sweep_range(pixels: NDArray, positions: NDArray, velocities: NDArray,
+                       centroid_sine: NDArray, half_width: float,
+                       aspect: tuple[NDArray, NDArray] | None = None, *, samples: int = 256,
+                       chunk: int = 16384, slack: float = 1e-4) -> tuple[NDArray, NDArray]:
+    """Per-pixel first and end sweep that can fall inside the window, on any track.
+
+    The window offset of sweep k at pixel x is ``g_k = d . l_k - u`` (aspect frame
+    ``(d, u)`` of :func:`mitsar.focus.aperture.aspect_frames`) or ``g_k = v_k . l_k - u_c,k``
+    (whole beam: own velocity direction v_k and centroid sine u_c,k), with ``l_k`` the unit
+    line of sight from the antenna to x; sweep k contributes only if ``|g_k| <= h``
+    (docs/focusing.md, "Curved tracks", sweep ranges). ``g`` is evaluated on ``samples``
+    evenly spaced sweeps ``c_i``; between ``c_i`` and ``c_{i+1}`` it changes by at most
+
+    ``m_i = L_i / R_i + V_i + C_i`` (whole beam; ``L_i / R_i`` with an aspect frame),
+
+    where ``L_i`` is the path length of the interval (the antenna's polyline), ``R_i =
+    min(R(c_i), R(c_{i+1})) - L_i / 2`` a lower bound of the pixel's range along it (so the
+    line of sight turns by at most ``L_i / R_i`` radians, a chord of the unit sphere no longer
+    than that), ``V_i`` the summed changes ``|v_{k+1} - v_k|`` of the unit velocity and
+    ``C_i`` those of the centroid sine. An interval can hold a contributing sweep only if
+    ``|g(c_i)| <= h + m_i + slack`` (``slack`` covers the kernel's float32 offsets), and a pixel's
+    range runs from the first such interval's start to the last one's end: no contributing
+    sweep is dropped (an interval with ``R_i <= 0`` always qualifies).
+
+    Parameters
+    ----------
+    pixels : ndarray, shape (P, 3)
+        Pixel positions [m].
+    positions, velocities : ndarray, shape (S, 3)
+        Mid-sweep antenna positions [m] and velocities [m/s].
+    centroid_sine : ndarray, shape (S,)
+        Doppler-centroid direction sine of every sweep.
+    half_width : float
+        Window half width h in direction sine.
+    aspect : (ndarray (P, 3), ndarray (P,)), optional
+        Per-pixel aspect frames; None for the window on each sweep's own velocity.
+    samples : int
+        Sweeps sampled (at least 2).
+    chunk : int
+        Pixels per NumPy block (memory ~ 50 bytes x samples x chunk).
+    slack : float
+        Added to every bound (direction sine).
+
+    Returns
+    -------
+    first, end : ndarray, shape (P,), uint32
+        Sweep range ``first <= k < end`` of every pixel (empty if none can contribute).
+    """
+    sweeps = len(positions)
+    coarse = np.unique(np.linspace(0, sweeps - 1, max(min(samples, sweeps), 2))
+                       .round().astype(int))
+    first = np.zeros(len(pixels), dtype=np.uint32)
+    end = np.zeros(len(pixels), dtype=np.uint32)
+    if sweeps < 2 or len(pixels) == 0:
+        end[:] = sweeps
+        return first, end
+
+    def per_interval(steps: NDArray) -> NDArray:
+        """Sums of per-sweep steps over the coarse intervals [c_i, c_{i+1})."""
+        total = np.concatenate([[0.0], np.cumsum(steps)])
+        return total[coarse[1:]] - total[coarse[:-1]]
+
+    path = per_interval(np.linalg.norm(np.diff(positions, axis=0), axis=-1))
+    turning = np.zeros(len(path))
+    if aspect is None:
+        speed = np.linalg.norm(velocities, axis=-1, keepdims=True)
+        unit = velocities / np.where(speed > 0, speed, 1.0)
+        turning = (per_interval(np.linalg.norm(np.diff(unit, axis=0), axis=-1))
+                   + per_interval(np.abs(np.diff(centroid_sine))))
+    anchors = positions[coarse]                                  # (M, 3)
+    anchor_norm = np.einsum("mi,mi->m", anchors, anchors)
+    if aspect is None:
+        along = unit[coarse]
+        along_anchor = np.einsum("mi,mi->m", anchors, along)
+    for start in range(0, len(pixels), chunk):
+        block = pixels[start:start + chunk]
+        # |x - p_m| and (x - p_m) . d by matrix products (float64: no harmful cancellation
+        # at room scale, and slack covers far more than the rounding)
+        distance = np.sqrt(np.maximum(np.einsum("pi,pi->p", block, block)[:, None]
+                                      - 2.0 * block @ anchors.T + anchor_norm[None], 0.0))
+        if aspect is None:
+            offset = ((block @ along.T - along_anchor[None]) / distance
+                      - centroid_sine[coarse][None])
+        else:
+            frame, centre = aspect[0][start:start + chunk], aspect[1][start:start + chunk]
+            offset = ((np.einsum("pi,pi->p", block, frame)[:, None] - frame @ anchors.T)
+                      / distance - centre[:, None])
+        nearest = np.minimum(distance[:, :-1], distance[:, 1:]) - 0.5 * path[None]
+        reach = np.where(nearest > 0, path[None] / np.where(nearest > 0, nearest, 1.0), np.inf)
+        hit = np.abs(offset[:, :-1]) <= half_width + reach + turning[None] + slack  # (P, M-1)
+        any_hit = hit.any(axis=1)
+        low = hit.argmax(axis=1)
+        high = hit.shape[1] - 1 - hit[:, ::-1].argmax(axis=1)
+        first[start:start + chunk] = np.where(any_hit, coarse[:-1][low], 0)
+        end[start:start + chunk] = np.where(any_hit, coarse[1:][high] + 1, 0)
+    return first, end

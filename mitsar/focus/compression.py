@@ -25,7 +25,8 @@ from mitsar.raw.product import radar_of
 
 def range_spectrum(samples: NDArray, radar: Radar, *, window: str = "rect",
                    remove_rvp: bool = True, upsample: int = 1,
-                   rvp_present: bool = True) -> tuple[NDArray, NDArray]:
+                   rvp_present: bool = True, band: tuple[float, float] | None = None
+                   ) -> tuple[NDArray, NDArray]:
     """Range-compress dechirped sweeps: windowed, zero-padded, sweep-centred FFT.
 
     Parameters
@@ -41,6 +42,10 @@ def range_spectrum(samples: NDArray, radar: Radar, *, window: str = "rect",
         Zero-padding factor of the FFT (interpolates the profile).
     rvp_present : bool
         Whether the samples carry the residual video phase.
+    band : (float, float), optional
+        Beat-frequency band [Hz]: only the bins of the zero-padded FFT inside it are computed,
+        by a zoom transform (:func:`zoom_dft`, the same values to ~1e-13 of the peak), for
+        pixels that see a narrow range band (docs/focusing.md, kernel speed).
 
     Returns
     -------
@@ -52,19 +57,66 @@ def range_spectrum(samples: NDArray, radar: Radar, *, window: str = "rect",
     count = samples.shape[-1]
     size = count * int(upsample)
     weights = window_samples(window, count)
+    step = radar.sampling_frequency / size
+    split = (size + 1) // 2
+    if band is not None:
+        low = max(int(np.ceil(band[0] / step)), split - size)
+        high = min(int(np.floor(band[1] / step)), split - 1)
+        if high - low + 1 < size // 2:  # otherwise the whole FFT is as cheap
+            frequency = np.arange(low, max(high, low) + 1) * step
+            profile = zoom_dft(samples * (weights / weights.sum()), size, low, len(frequency))
+            profile *= np.exp(1j * _phase(frequency, radar, remove_rvp and rvp_present))
+            return frequency, profile
     spectrum = sp_fft.fft(samples * (weights / weights.sum()), n=size, axis=-1, workers=-1)
     frequency = np.fft.fftfreq(size, 1.0 / radar.sampling_frequency)
-    phase = np.pi * frequency * radar.sweep_duration
-    if remove_rvp and rvp_present:
-        phase = phase + np.pi * frequency**2 / radar.chirp_rate
-    factor = np.exp(1j * phase)
+    factor = np.exp(1j * _phase(frequency, radar, remove_rvp and rvp_present))
     # Ascending frequencies are a rotation of the FFT's order (negative ones from bin
     # ceil(N/2) on): reorder and apply the phase in one pass over the spectrum.
-    split = (size + 1) // 2
     out = np.empty_like(spectrum)
     np.multiply(spectrum[..., split:], factor[split:], out=out[..., :size - split])
     np.multiply(spectrum[..., :split], factor[:split], out=out[..., size - split:])
     return np.concatenate([frequency[split:], frequency[:split]]), out
+
+
+def _phase(frequency: NDArray, radar: Radar, remove_rvp: bool) -> NDArray:
+    """Sweep-centring phase ``pi f T`` plus the RVP removal ``pi f^2 / K`` [rad] (module doc)."""
+    phase = np.pi * frequency * radar.sweep_duration
+    if remove_rvp:
+        phase = phase + np.pi * frequency**2 / radar.chirp_rate
+    return phase
+
+
+def zoom_dft(samples: NDArray, size: int, first: int, count: int) -> NDArray:
+    """Bins ``first ... first + count - 1`` of the ``size``-point DFT of zero-padded samples.
+
+    ``X[k] = sum_n x[n] exp(-j 2 pi k n / size)`` by Bluestein's chirp-z factorisation
+    (``k n = (k^2 + n^2 - (k - n)^2) / 2``): one FFT of length ``>= N + count - 1`` forward and
+    one back per row instead of one of length ``size``. ``first`` may be negative.
+
+    Parameters
+    ----------
+    samples : ndarray, shape (..., N)
+    size : int
+        Length of the zero-padded DFT (``>= N``).
+    first, count : int
+        First bin (signed) and number of bins.
+
+    Returns
+    -------
+    ndarray, shape (..., count), complex
+    """
+    n = samples.shape[-1]
+    length = sp_fft.next_fast_len(n + count - 1)
+    index = np.arange(n, dtype=float)
+    # x[n] exp(-j 2 pi (first n + n^2 / 2) / size), convolved with exp(+j pi m^2 / size)
+    pre = np.exp(-2j * np.pi * (first * index + index**2 / 2) / size)
+    lags = np.arange(-(n - 1), count, dtype=float)
+    kernel = sp_fft.fft(np.exp(1j * np.pi * lags**2 / size), n=length)
+    spectrum = sp_fft.fft(samples * pre, n=length, axis=-1, workers=-1)
+    spectrum *= kernel
+    out = sp_fft.ifft(spectrum, axis=-1, workers=-1)[..., n - 1:n - 1 + count]
+    out *= np.exp(-1j * np.pi * np.arange(count, dtype=float)**2 / size)
+    return out
 
 
 def range_compress(raw: xr.Dataset, window: str = "rect", remove_rvp: bool = True,

@@ -48,16 +48,16 @@ beam (a hard cut per pixel and sweep) is refused: polar sub-aperture images cann
 Options (``algorithm_options``), defaults and measured error (``docs/focusing.md`` § FFBP):
 ``factor`` 4 (sub-apertures merged per stage), ``first_subaperture`` 8 (sweeps per
 first-stage sub-aperture), ``final_subapertures`` 8 (merging stops when at most this many are
-left), ``angle_oversample`` 4.0 (``q_a``), ``first_angle_oversample`` 4.0 (extra angular
-sampling of the first stage, where nodes are cheap: finer window edges), ``range_oversample``
-4.0 (``q_r``), ``lookup_upsample`` 16 (cap on the range FFT's zero-padding for the first
-stage's linear lookup: 8 halves the range compression for -39 dB, 4 gives -32 dB). At the
-defaults a point target's image is -44 dB from
-exact BPA (straight track, Doppler band selection), -39 dB (curved track, ground plane, whole
-beam); the error falls by ~19 dB from ``q_a`` = 2 to 4 and ~5 dB from 4 to 8, and is -31 dB at
-``q_r`` = 2. Processing the whole beam with a rect window, the hard cut of the target's echo
-at each far pixel's beam edge limits the agreement to about -34 dB (-46 dB with a Hamming
-window).
+left), ``angle_oversample`` 4.0 (``q_a``), ``first_angle_oversample`` 2.0 (extra angular
+sampling of the first stage: finer window edges), ``range_oversample`` 4.0 (``q_r``),
+``lookup_upsample`` 16 (cap on the range FFT's zero-padding for the first stage's linear
+lookup: 8 gives -39 dB, 4 -32 dB). Only the range band of the first stage's polar grids is
+compressed (zoom transform, :func:`mitsar.focus.bp_setup.beat_band`). At the defaults a point
+target's image is -44 dB from exact BPA (straight track, Doppler band selection), -40 dB
+(curved track, ground plane, whole beam); the error falls by ~19 dB from ``q_a`` = 2 to 4 and
+~4 dB from 4 to 8, and is -31 dB at ``q_r`` = 2. Processing the whole beam with a rect window,
+the hard cut of the target's echo at each far pixel's beam edge limits the agreement to about
+-33 dB (-45 dB with a Hamming window).
 """
 
 from __future__ import annotations
@@ -86,15 +86,15 @@ from mitsar.focus.backprojection import (
     jit_array,
 )
 from mitsar.focus.bp_setup import normalise, prepare
-from mitsar.focus.bpa import crop_to_pixels
 from mitsar.focus.grid import track_frame
 from mitsar.model.radar import SPEED_OF_LIGHT
+from mitsar.raw.product import radar_of
 
 __all__ = ["FFBP_DEFAULTS", "focus_ffbp"]
 
 FFBP_DEFAULTS: dict[str, float | str] = {
     "factor": 4, "first_subaperture": 8, "final_subapertures": 8, "angle_oversample": 4.0,
-    "range_oversample": 4.0, "first_angle_oversample": 4.0, "lookup_upsample": 16}
+    "range_oversample": 4.0, "first_angle_oversample": 2.0, "lookup_upsample": 16}
 """Default FFBP options (see the module docstring)."""
 
 _MARGIN = 3
@@ -158,10 +158,20 @@ def focus_ffbp(raw: xr.Dataset, layout_or_pixels: dict | NDArray, *, half_width:
     require_llvm()
     settings = _options(options)
     pixels = _pixel_array(layout_or_pixels)
+    sweeps = raw.sizes["sweep"]
+    stages = _plan(sweeps, settings)
+    rho_step = radar_of(raw).range_resolution / settings["range_oversample"]
+    # The first stage's polar grids reach (margin + 1) range steps and half a sub-aperture
+    # past the pixels' ranges (_make_stage): compress only that band (bp_setup.beat_band).
+    track = raw["platform_position"].values
+    reach = ((_MARGIN * len(stages) + 1) * rho_step
+             + settings["first_subaperture"]
+             * float(np.linalg.norm(np.diff(track, axis=0), axis=-1).max(initial=0.0)))
     bp = prepare(raw, half_width=half_width, window=window, range_window=range_window,
                  remove_rvp=remove_rvp,
                  range_upsample=min(range_upsample, settings["lookup_upsample"]),
-                 band_selection=band_selection)
+                 band_selection=band_selection, points=_pixel_sample(layout_or_pixels),
+                 range_margin=reach)
     if bp.band_selection == "pixel" and half_width < bp.beam_half_width:
         raise ParameterError(
             "focus", "azimuth_resolution",
@@ -179,8 +189,6 @@ def focus_ffbp(raw: xr.Dataset, layout_or_pixels: dict | NDArray, *, half_width:
     local_positions = positions - origin_local
     normal, plane_point = _image_plane(sample, local_positions)
     wavenumber = 2 * radar.carrier_frequency / SPEED_OF_LIGHT  # two-way, cycles per metre
-    rho_step = radar.range_resolution / settings["range_oversample"]
-    stages = _plan(len(positions), settings)
     window_support = (mean_centroid - kernel_half_width, mean_centroid + kernel_half_width)
     bar = tqdm(total=len(stages) + 1, disable=not progress, desc="FFBP", unit="stage")
 
@@ -192,8 +200,6 @@ def focus_ffbp(raw: xr.Dataset, layout_or_pixels: dict | NDArray, *, half_width:
     nodes = _node_positions(stage, normal, plane_point)
     flat_nodes = nodes.reshape(-1, 3) + origin_local
     node_count = stage.shape[0] * stage.shape[1]
-    frequency, profile = crop_to_pixels(frequency, profile, radar, flat_nodes, positions,
-                                        float(bp.speed.max()))
     sweep_range = (np.repeat(stage.first, node_count).astype(np.uint32),
                    np.repeat(stage.end, node_count).astype(np.uint32))
     sums, totals = backproject_drjit(profile, frequency, radar, flat_nodes, positions,
@@ -286,11 +292,21 @@ def _pixel_array(layout_or_pixels: dict | NDArray) -> NDArray:
     return pixels
 
 
-def _pixel_sample(layout_or_pixels: dict | NDArray, count: int = 4096) -> NDArray:
-    """Pixels that bound the extent of the image: a grid's border and a strided interior."""
+def _pixel_sample(layout_or_pixels: dict | NDArray, count: int = 4096,
+                  border_count: int = 1024) -> NDArray:
+    """Pixels that bound the extent of the image: a grid's border and a strided interior.
+
+    On a grid the extremes of range and direction cosine from a point off the plane lie on
+    the border (range is convex along each border line, the cones of constant direction cosine
+    cut the plane in conics), so the border is kept at ``border_count`` points and the interior
+    at ``count / 16``; for scattered pixels ``count`` of them and their extremes.
+    """
     if isinstance(layout_or_pixels, dict):
         grid = np.asarray(layout_or_pixels["position"], dtype=float)
-        border = np.concatenate([grid[0], grid[-1], grid[:, 0], grid[:, -1]])
+        stride = max(1, (2 * (grid.shape[0] + grid.shape[1])) // border_count)
+        border = np.concatenate([grid[0, ::stride], grid[-1, ::stride], grid[::stride, 0],
+                                 grid[::stride, -1], grid[[0, 0, -1, -1], [0, -1, 0, -1]]])
+        count = max(1, count // 16)
         step = max(1, int(math.ceil(math.sqrt(grid.shape[0] * grid.shape[1] / count))))
         return np.concatenate([border, grid[::step, ::step].reshape(-1, 3)])
     pixels = np.asarray(layout_or_pixels, dtype=float)
