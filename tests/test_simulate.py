@@ -252,3 +252,19 @@ def test_echoes_that_all_miss_the_beam_are_an_error_not_zeros():
     with pytest.raises(mitsar.ParameterError, match="beam"):
         mitsar.simulate_point_targets(mitsar.Radar(), track, mitsar.Look(55.7),
                                       [mitsar.PointTarget([15.0, -5.0, 0.0])])
+
+
+def test_a_long_pass_simulates_in_kernel_chunks():
+    """8000 sweeps (32 s) in one call: with 2**22-lane kernel chunks Dr.Jit 1.5 crashed on the
+    second launch (mitsar/raw/analytic.py, chunk_elements). A unit echo normalised at boresight
+    has |sample| = 1 where the target crosses the beam centre (mid-pass) and never more."""
+    radar = mitsar.Radar()
+    duration = 8000 / radar.prf
+    track = mitsar.Trajectory.linear([15.0 - 0.25 * duration, 1.4, 4.5], [0.5, 0, 0], duration)
+    look = mitsar.Look(np.degrees(np.arctan2(6.6, 4.5)))
+    raw = mitsar.simulate_point_targets(radar, track, look, [mitsar.PointTarget((15, 8, 0))],
+                                        normalized=True)
+    magnitude = np.abs(raw["raw"].values)
+    assert raw.sizes["sweep"] == 8000
+    assert magnitude.max() <= 1 + 1e-9
+    assert magnitude[4000].mean() == pytest.approx(1.0, abs=1e-3)

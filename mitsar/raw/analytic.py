@@ -108,7 +108,7 @@ def simulate_point_targets(radar: Radar, trajectory: Trajectory, look: Look,
                            background: Background | None = None, seed: int = 0, *,
                            rvp: bool = True, normalized: bool = False, pattern: bool = True,
                            noise: bool = False, progress: bool = False, backend: str = "drjit",
-                           chunk_elements: int = 2**22,
+                           chunk_elements: int = 2**20,
                            navigation: Trajectory | NavigationErrors | None = None
                            ) -> xr.Dataset:
     """Simulate dechirped FMCW raw data of point targets and a fluctuating background.
@@ -137,7 +137,9 @@ def simulate_point_targets(radar: Radar, trajectory: Trajectory, look: Look,
         The Dr.Jit kernel (one lane per sample, a loop over scatterers) or the NumPy reference.
     chunk_elements : int
         Bound on the lanes (Dr.Jit: sweeps x samples) or on sweeps x samples x scatterers
-        (NumPy) evaluated at once (memory).
+        (NumPy) evaluated at once (memory). The default 2**20 keeps Dr.Jit 1.5's LLVM backend
+        clear of a crash seen with two consecutive launches of ~2**22 lanes (7942 sweeps of
+        the paper's radar; tests/test_simulate.py keeps a long pass in the suite).
     navigation : Trajectory or NavigationErrors, optional
         What the navigation system records: ``trajectory`` is then the *true* track (echoes,
         antenna pattern and attitude follow it), and the product's platform variables hold the
