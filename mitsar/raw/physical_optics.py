@@ -17,7 +17,8 @@ first and the last reflection point, deposited like every other contribution
 (:mod:`mitsar.model.histogram`) at the delay ``(R_t + R_r)/c`` of the path through the
 centroid, its Doppler, and order = the chain's length. Shadowing: a ``ray_test`` from the
 antenna to the last reflection point and, for chains, one to the first. Facets of moving shapes
-are translated to their mid-sweep position (docs/integrator.md §Moving objects). NumPy,
+are moved to their mid-sweep position, rigidly with rotating shapes and paths
+(:mod:`mitsar.model.geometry.rigid_motion`; docs/integrator.md §Moving objects). NumPy,
 vectorised over sweep × chain × sub-facet lanes in blocks; no Python loop over sweeps.
 """
 
@@ -33,6 +34,7 @@ from mitsar.model import histogram as hg
 from mitsar.model import physical_optics as po
 from mitsar.model.bounce_chains import chain_echo, facet_chains, facets_in_beam, mirror_points
 from mitsar.model.geometry.antenna import direction_sines, one_way_pattern
+from mitsar.model.geometry.rigid_motion import RigidMotion
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
 from mitsar.model.signal import radar_equation_amplitude
 from mitsar.scene.facets import FacetSet, segments_visible
@@ -83,11 +85,16 @@ class FacetEchoes:
     beam_cull : float
         Beamwidths of direction sine within which a chain's first and last facets must come
         at some sweep (the integrator's ``beam_cull``).
+    motions : list of RigidMotion or None, optional
+        Rigid motion of each selected shape (None: static); replaces ``velocities`` (for
+        rotating shapes and paths). The Doppler of a reflection point is its rigid-body
+        velocity; a chain's image moves with its mirror planes' points, not their turning.
     """
 
     def __init__(self, radar: Radar, scene: Any, facets: FacetSet, geometry: dict,
                  frames: NDArray, ranges: NDArray, bins_per_cell: int, max_length: int = 1,
-                 velocities: NDArray | None = None, beam_cull: float = 2.0) -> None:
+                 velocities: NDArray | None = None, beam_cull: float = 2.0,
+                 motions: list[RigidMotion | None] | None = None) -> None:
         self.radar, self.scene, self.facets = radar, scene, facets
         self.geometry, self.frames, self.ranges = geometry, frames, ranges
         self.step = hg.range_step(radar, bins_per_cell)
@@ -97,13 +104,15 @@ class FacetEchoes:
                           else np.asarray(velocities, dtype=np.float64))
         tri = np.asarray(facets.triangles)
         self.facet_velocity = shape_velocity[facets.shape] if len(tri) else np.zeros((0, 3))
+        self.motions = motions
+        self._shape_velocity = shape_velocity
         centre = tri.mean(axis=1)
         radius = np.linalg.norm(tri - centre[:, None], axis=-1).max(axis=1, initial=0.0)
         nearest = np.full(len(tri), np.inf)
         in_beam = np.zeros(len(tri), dtype=bool)
         for start in range(0, len(positions), _SWEEP_BLOCK):    # blocks of sweeps
             block = slice(start, start + _SWEEP_BLOCK)
-            moved = centre[None] + self.times[block, None, None] * self.facet_velocity[None]
+            moved = self._moved(centre[None], facets.shape[None], self.times[block, None])
             nearest = np.minimum(nearest, np.linalg.norm(
                 moved - positions[block, None], axis=-1).min(axis=0, initial=np.inf))
             in_beam |= facets_in_beam(moved, radius, positions[block], frames[block],
@@ -184,7 +193,7 @@ class FacetEchoes:
         t = self.times[sweeps]
         p = self.geometry["position"][sweeps]
         frames = self.frames[sweeps]
-        last = self.triangles[sub] + (self.velocity[sub] * t[:, None])[:, None, :]
+        last = self._moved(self.triangles[sub], self.shape[sub], t)
         u_exit, _, p_exit = _pattern(last.mean(axis=1) - p, frames, radar)
         front = p_exit > 0                               # cheap cull: behind the antenna
         if not np.any(front):
@@ -192,7 +201,7 @@ class FacetEchoes:
         row, sweeps, prefix, sub, t, p = (a[front] for a in (row, sweeps, prefix, sub, t, p))
         frames, last = frames[front], last[front]
         tri = self.facets.triangles
-        links = [tri[prefix[:, m]] + (self.facet_velocity[prefix[:, m]] * t[:, None])[:, None]
+        links = [self._moved(tri[prefix[:, m]], self.facets.shape[prefix[:, m]], t)
                  for m in range(length - 1)] + [last]
         shapes = np.concatenate([self.facets.shape[prefix], self.shape[sub][:, None]], axis=1)
         echo = chain_echo(links, p, p, radar.wavelength,
@@ -223,10 +232,13 @@ class FacetEchoes:
         v_p = self.geometry["velocity"][sweeps][keep]
         v_image = v_p
         for m in range(length - 1):
-            anchor_velocity = self.facet_velocity[prefix[keep, m]]
+            anchor_velocity = (self.facet_velocity[prefix[keep, m]] if self.motions is None
+                               else self._velocity(links[m][keep].mean(axis=1),
+                                                   self.facets.shape[prefix[keep, m]], t[keep]))
             v_image = mirror_points(v_image, anchor_velocity, normals[m][keep])
-        v_c = self.velocity[sub[keep]]
         point = echo.exit[keep]
+        v_c = (self.velocity[sub[keep]] if self.motions is None
+               else self._velocity(point, self.shape[sub[keep]], t[keep]))
         rate = (np.einsum("ni,ni->n", _unit(point - echo.image[keep]), v_c - v_image)
                 + np.einsum("ni,ni->n", _unit(p[keep] - point), v_p - v_c))
         path = r_t + r_r
@@ -235,6 +247,38 @@ class FacetEchoes:
         hg.deposit(out, (row[keep], np.full(int(keep.sum()), length)), value,
                    hg.apparent_range(0.5 * path, 0.5 * rate, radar), float(self.ranges[0]),
                    self.step)
+
+
+    def _moved(self, points: NDArray, shapes: NDArray, t: NDArray) -> NDArray:
+        """``points`` (lanes, ..., 3) of facets of the selected shapes ``shapes`` (lanes,) at
+        load, moved to slow times ``t`` (lanes,) [s] (lanes broadcast)."""
+        if self.motions is None:   # translations: x + v t
+            lanes = np.broadcast_shapes(shapes.shape, t.shape)
+            extra = (1,) * (points.ndim - 1 - len(lanes))
+            shift = self._shape_velocity[shapes] * t[..., None]
+            return points + shift.reshape(lanes + extra + (3,))
+        return _rigid_apply(self.motions, shapes, points, t, "move")
+
+    def _velocity(self, points: NDArray, shapes: NDArray, t: NDArray) -> NDArray:
+        """Rigid-body velocity [m/s] of the facet points ``points`` (lanes, 3) at ``t``."""
+        return _rigid_apply(self.motions, shapes, points, t, "point_velocity")
+
+
+def _rigid_apply(motions: list[RigidMotion | None], shapes: NDArray, points: NDArray,
+                 t: NDArray, method: str) -> NDArray:
+    """``RigidMotion.move`` (or ``point_velocity``) of each lane's shape, lanes broadcast from
+    ``shapes`` and ``t``; static shapes keep their points (velocity 0)."""
+    lanes = np.broadcast_shapes(shapes.shape, t.shape)
+    tail = points.shape[len(lanes):]
+    x = np.broadcast_to(points, lanes + tail)
+    shapes, t = np.broadcast_to(shapes, lanes), np.broadcast_to(t, lanes)
+    out = np.array(x, dtype=float) if method == "move" else np.zeros(x.shape)
+    for k in np.unique(shapes):          # the selected shapes (a few), not lanes
+        if motions[k] is None:
+            continue
+        sel = shapes == k
+        out[sel] = getattr(motions[k], method)(x[sel], t[sel])
+    return out
 
 
 def _unit(v: NDArray) -> NDArray:

@@ -157,7 +157,8 @@ class _Run:
         else:  # multipath only: no surface scatterers to sample
             self.scatterers = empty_scatterers(self.config.density(radar), self.config.seed)
         # Moving shapes (docs/integrator.md §Moving objects): their scatterers get their velocity.
-        self.motion = SceneMotion(where, self.scene, parse_motion(where, motion))
+        self.motion = SceneMotion(where, self.scene, parse_motion(where, motion),
+                                  trajectory.duration)
         if self.motion.moving:
             self.scatterers = _moving_scatterers(self.scatterers, surface_velocities(
                 self.scene, self.motion.motion))
@@ -171,6 +172,12 @@ class _Run:
         if facets is not None:
             low, high = _facet_limits(facets.triangles, self.geometry["position"], low, high,
                                       radar, trajectory.max_speed() + self.motion.max_speed())
+        if self.motion.rotating:  # rotating shapes and paths: their bounding spheres' ranges
+            near, far = self.motion.range_span(self.geometry["position"],
+                                               self.geometry["slow_time"])
+            margin = (radar.carrier_frequency / radar.chirp_rate) * 2.0 * (
+                trajectory.max_speed() + self.motion.max_speed()) + 2 * radar.range_resolution
+            low, high = min(low, near - margin), max(high, min(far, radar.max_range) + margin)
         self.grid = hg.bin_grid(radar, low, high, self.config.bins_per_cell)
         self.ranges = hg.bin_ranges(radar, *self.grid, self.config.bins_per_cell)
         # Physical optics (docs/physical_optics.md §5): chains of up to max_depth - 1 facets
@@ -180,7 +187,8 @@ class _Run:
             radar, self.scene, facets, self.geometry, self.frames, self.ranges,
             self.config.bins_per_cell, max(1, self.config.max_depth - 1),
             surface_velocities(self.scene, self.motion.motion)[list(facets.surface_index)],
-            self.config.beam_cull)
+            self.config.beam_cull,
+            self.motion.shape_motions(facets.shape_ids) if self.motion.rotating else None)
         self.orders = max(self.config.max_depth, 1 if facets is None else 2)
 
     def _facets(self, where: str, physical_optics: Any) -> FacetSet | None:
@@ -231,10 +239,11 @@ class _Run:
         try:
             for sweep in tqdm(self.sweeps, disable=not progress, desc="trace (moving shapes)",
                               unit="sweep"):
-                self.motion.set_time(float(self.geometry["slow_time"][sweep])
-                                     + self.radar.sweep_duration / 2)
+                middle = float(self.geometry["slow_time"][sweep]) + self.radar.sweep_duration / 2
+                self.motion.set_time(middle)
                 yield from self.integrator.trace_histograms(
-                    self.scene, self.geometry, self.radar, self.frames, self.scatterers,
+                    self.scene, self.geometry, self.radar, self.frames,
+                    self.motion.scatterers_at(self.scatterers, middle),
                     self.grid, sweeps=np.array([sweep]), config=self.config, rvp=rvp,
                     normalized=normalized, progress=False, setup=self.setup,
                     backscatter=self.backscatter)
@@ -258,7 +267,7 @@ class _Run:
                     "physical_optics_shapes": list(self.facet_echoes.facets.shape_ids),
                     "physical_optics_subfacets": len(self.facet_echoes),
                     "physical_optics_chains": self.facet_echoes.chain_counts}),
-                "motion": {key: list(value) for key, value in self.motion.motion.items()},
+                "motion": self.motion.describe(),
                 "receiver_offset": [float(v) for v in self.setup.receiver_offset],
                 "rays_per_sweep": 0 if self.setup.rays is None else len(self.setup.rays),
                 "trajectory_kind": (self.recorded or self.trajectory).kind,
@@ -435,8 +444,10 @@ def trace(radar: Radar, trajectory: Trajectory, look: Look, scene: Any, *,
         resolve (default 0.03; 0: a shadow ray per sweep); docs/integrator.md §"Visibility
         reuse".
     motion : dict, optional
-        ``{shape id: [vx, vy, vz]}`` [m/s]: shapes that move during the acquisition, on top of
-        the ``velocity`` properties of the XML's shapes and the moving point targets
+        ``{shape id: [vx, vy, vz]}`` [m/s] or ``{shape id: {"velocity": ..,
+        "angular_velocity_deg": .., "centre": .., "path": {"times", "positions",
+        "attitude_deg"}}}``: shapes that move during the acquisition, on top of the motion
+        properties of the XML's shapes and the moving point targets
         (:mod:`mitsar.scene.motion`; docs/integrator.md §Moving objects). With any moving
         shape the scene is traced one sweep at a time, each with the shapes where they are.
     physical_optics : bool or sequence of str
@@ -644,7 +655,7 @@ def histogram_to_raw_product(histogram: xr.Dataset, orders: Any = None) -> xr.Da
         "bins_per_cell", "integrator", "scene", "trajectory_kind", "trajectory_straight",
         "config") if key in histogram.attrs}
     attrs.update({key: value for key, value in histogram.attrs.items()
-                  if key.startswith("traced_")})
+                  if key.startswith(("traced_", "physical_optics_", "motion"))})
     attrs.update(simulator="ray tracing (radar integrator)",
                  orders=[int(o) for o in histogram["order"].values[mask]])
     product = make_raw_product(samples, radar, look_of(histogram), track_geometry(histogram),

@@ -18,7 +18,7 @@ from typing import Any
 
 from mitsar.errors import MissingFileError, ParameterError, SceneError
 from mitsar.scene import canned
-from mitsar.scene.motion import MOTION_PROPERTIES, register_scene_motion
+from mitsar.scene.motion import MOTION_PROPERTIES, ShapeMotion, register_scene_motion
 from mitsar.scene.variant import register_plugins
 
 __all__ = ["load_scene"]
@@ -230,13 +230,15 @@ def load_scene(path_or_scene: Any, **params: Any) -> Any:
 
 
 def _shape_motion(path: Path, elements: list[_Element], params: dict[str, str]
-                  ) -> tuple[dict[str, tuple[float, float, float]], str]:
-    """Velocities given as properties of ``<shape>`` elements, and the XML text without them.
+                  ) -> tuple[dict[str, Any], str]:
+    """Motions given as properties of ``<shape>`` elements, and the XML text without them.
 
     ``<vector name="velocity" x=".." y=".." z=".."/>`` or ``<string name="velocity"
-    value="vx, vy, vz"/>`` [m/s] directly inside a shape with an ``id``.
+    value="vx, vy, vz"/>`` [m/s] directly inside a shape with an ``id``; likewise
+    ``angular_velocity_deg`` [deg/s] and ``rotation_centre`` [m] (:mod:`mitsar.scene.motion`).
     """
-    motion: dict[str, tuple[float, float, float]] = {}
+    motion: dict[str, Any] = {}
+    properties: dict[str, dict[str, tuple[float, ...]]] = {}
     found = [(i, el) for i, el in enumerate(elements)
              if el.parent is not None and elements[el.parent].tag == "shape"
              and el.attrs.get("name") in MOTION_PROPERTIES]
@@ -263,8 +265,8 @@ def _shape_motion(path: Path, elements: list[_Element], params: dict[str, str]
         except ValueError:
             velocity = ()
         if len(velocity) != 3 or not all(abs(v) < float("inf") for v in velocity):
-            raise ParameterError(where, el.attrs["name"], "three finite numbers [m/s]", value)
-        motion[shape.attrs["id"]] = velocity  # type: ignore[assignment]
+            raise ParameterError(where, el.attrs["name"], "three finite numbers", value)
+        properties.setdefault(shape.attrs["id"], {})[el.attrs["name"]] = velocity
         line = lines[el.line - 1]
         start = el.column - 1
         end = line.find("/>", start)
@@ -272,4 +274,12 @@ def _shape_motion(path: Path, elements: list[_Element], params: dict[str, str]
             raise ParameterError(where, el.attrs["name"], "a self-closing element on one line "
                                  "(<vector .../>)", line.strip())
         lines[el.line - 1] = line[:start] + " " * (end + 2 - start) + line[end + 2:]
+    for shape_id, found_here in properties.items():
+        velocity = found_here.get("velocity", (0.0, 0.0, 0.0))
+        if set(found_here) == {"velocity"}:
+            motion[shape_id] = velocity
+        else:
+            motion[shape_id] = ShapeMotion(velocity, found_here.get("angular_velocity_deg",
+                                                                    (0.0, 0.0, 0.0)),
+                                           found_here.get("rotation_centre"))
     return motion, "".join(lines)
