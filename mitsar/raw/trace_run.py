@@ -1,0 +1,336 @@
+"""One ray-traced acquisition: what :func:`mitsar.raw.traced.trace` and
+:func:`~mitsar.raw.traced.simulate_scene` share (docs/design.md §5.4, docs/integrator.md).
+
+:class:`TraceRun` holds the resolved inputs of a run (radar, true and navigation tracks, the
+scene's scatterer set, its physical-optics facets and moving shapes, the selected sweeps, the
+range grid) and traces it chunk by chunk of sweeps (:meth:`TraceRun.chunks`; one sweep at a
+time when something moves). The helpers bound the range grid for multipath and facets and select
+sweeps.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+from collections.abc import Iterator, Sequence
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from tqdm.auto import tqdm
+
+from mitsar.budget import require_memory
+from mitsar.errors import ParameterError
+from mitsar.model import histogram as hg
+from mitsar.model.geometry.attitude import Look, antenna_frame
+from mitsar.model.geometry.navigation import (
+    NavigationErrors,
+    describe_navigation,
+    resolve_navigation,
+)
+from mitsar.model.geometry.trajectory import Trajectory
+from mitsar.model.radar import Radar
+from mitsar.model.signal import sweep_count
+from mitsar.plugins.integrators.radar import make_setup
+from mitsar.raw.physical_optics import FacetEchoes
+from mitsar.raw.product import (
+    GEOMETRY_BYTES_PER_SWEEP,
+    require_raw_memory,
+    sweep_geometry,
+)
+from mitsar.scene import (
+    ScattererSet,
+    collect_scatterers,
+    empty_scatterers,
+    load_scene,
+    range_limits,
+    register_plugins,
+)
+from mitsar.scene.facets import FacetSet, scene_facets
+from mitsar.scene.motion import SceneMotion, parse_motion, surface_velocities
+
+__all__ = ["TraceRun"]
+
+
+# --------------------------------------------------------------------------------------------
+# Set-up shared by trace and simulate_scene
+# --------------------------------------------------------------------------------------------
+
+def _scene_scatterers(integrator: Any, scene: Any, density: float, seed: int) -> ScattererSet:
+    """The scene's scatterers for ``density`` and ``seed``, kept on the scene's integrator so
+    that repeated traces of one scene reuse the draw and its device arrays."""
+    key = (id(scene), float(density), int(seed))
+    if integrator.cache.get("key") != key:
+        integrator.cache.clear()
+        integrator.cache.update(key=key, scatterers=collect_scatterers(scene, density, seed))
+    return integrator.cache["scatterers"]
+
+
+class TraceRun:
+    """Everything one traced acquisition needs, resolved and validated."""
+
+    def __init__(self, where: str, radar: Radar, trajectory: Trajectory, look: Look, scene: Any,
+                 density: float | None, seed: int | None, sweeps: Any, chunk_lanes: int | None,
+                 bins_per_cell: int | None, beam_cull: float | None,
+                 scene_params: dict | None, multipath: dict | None = None,
+                 receiver_offset: Any = None, receiver_look: Look | None = None,
+                 backscatter: bool = True,
+                 navigation: Trajectory | NavigationErrors | None = None,
+                 motion: dict | None = None,
+                 physical_optics: bool | Sequence[str] | None = False) -> None:
+        if not isinstance(radar, Radar):
+            raise ParameterError(where, "radar", "a mitsar.Radar", type(radar))
+        if not isinstance(trajectory, Trajectory):
+            raise ParameterError(where, "trajectory", "a mitsar.Trajectory", type(trajectory))
+        if not isinstance(look, Look):
+            raise ParameterError(where, "look", "a mitsar.Look", type(look))
+        radar.check_prf(trajectory.max_speed())
+        total = sweep_count(radar, trajectory.duration)
+        if total < 1:
+            raise ParameterError(where, "trajectory.duration",
+                                 f">= one sweep ({radar.sweep_duration:g} s)", trajectory.duration)
+        require_memory(where, "trajectory.duration", 2.0 * total * GEOMETRY_BYTES_PER_SWEEP,
+                       f"{total} sweeps (duration x prf): shorten the flight")
+        self.sweeps = _select_sweeps(where, sweeps, total)
+        require_raw_memory(where, radar, len(self.sweeps))
+        register_plugins()
+        import mitsuba as mi  # lazy: a variant is set by register_plugins just above
+
+        self.scene_name = scene if isinstance(scene, str | os.PathLike) else "<mitsuba.Scene>"
+        self.scene = load_scene(scene, **(scene_params or {}))
+        self.integrator = _radar_integrator(self.scene, mi)
+        self.config = self.integrator.config.replace(
+            where, scatterer_density=density, seed=seed, chunk_lanes=chunk_lanes,
+            bins_per_cell=bins_per_cell, beam_cull=beam_cull, **(multipath or {}))
+        self.radar, self.trajectory, self.look = radar, trajectory, look
+        self.total = total
+        self.geometry = sweep_geometry(radar, trajectory, look, total)
+        self.navigation = navigation
+        self.recorded = resolve_navigation(where, trajectory, navigation)
+        self.recorded_geometry = (None if self.recorded is None
+                                  else sweep_geometry(radar, self.recorded, look, total))
+        self.frames = antenna_frame(look, *self.geometry["attitude"].T)
+        if receiver_look is not None and not isinstance(receiver_look, Look):
+            raise ParameterError(where, "receiver_look", "None or a mitsar.Look", receiver_look)
+        rx_frames = (None if receiver_look is None
+                     else antenna_frame(receiver_look, *self.geometry["attitude"].T))
+        self.setup = make_setup(radar, self.frames, self.config, receiver_offset, rx_frames)
+        self.backscatter = bool(backscatter)
+        if self.setup.bistatic and self.backscatter:
+            raise ParameterError(where, "backscatter", "False with a bistatic receiver (direct "
+                                 "backscatter is traced monostatically only)", backscatter)
+        self.receiver_look = receiver_look
+        if self.backscatter:
+            self.scatterers = _scene_scatterers(self.integrator, self.scene,
+                                                self.config.density(radar), self.config.seed)
+        else:  # multipath only: no surface scatterers to sample
+            self.scatterers = empty_scatterers(self.config.density(radar), self.config.seed)
+        # Moving shapes (docs/integrator.md §Moving objects): their scatterers get their velocity.
+        self.motion = SceneMotion(where, self.scene, parse_motion(where, motion),
+                                  trajectory.duration)
+        if self.motion.moving:
+            self.scatterers = _moving_scatterers(self.scatterers, surface_velocities(
+                self.scene, self.motion.motion))
+        facets = self._facets(where, physical_optics)
+        low, high = range_limits(self.scatterers, self.geometry["position"],
+                                 trajectory.max_speed(), radar, trajectory.duration)
+        if self.config.max_depth > 1:
+            low, high = _multipath_limits(self.scene, self.geometry["position"], low, high,
+                                          radar, trajectory.max_speed(), self.config.max_depth,
+                                          self.setup.receiver_offset)
+        if facets is not None:
+            low, high = _facet_limits(facets.triangles, self.geometry["position"], low, high,
+                                      radar, trajectory.max_speed() + self.motion.max_speed())
+        if self.motion.rotating:  # rotating shapes and paths: their bounding spheres' ranges
+            near, far = self.motion.range_span(self.geometry["position"],
+                                               self.geometry["slow_time"])
+            margin = (radar.carrier_frequency / radar.chirp_rate) * 2.0 * (
+                trajectory.max_speed() + self.motion.max_speed()) + 2 * radar.range_resolution
+            low, high = min(low, near - margin), max(high, min(far, radar.max_range) + margin)
+        self.grid = hg.bin_grid(radar, low, high, self.config.bins_per_cell)
+        self.ranges = hg.bin_ranges(radar, *self.grid, self.config.bins_per_cell)
+        # Physical optics (docs/physical_optics.md §5): chains of up to max_depth - 1 facets
+        # (at least the single facets), at order = their length; the tracer's rays stop on the
+        # same shapes, so no specular path through them is counted twice.
+        self.facet_echoes = None if facets is None else FacetEchoes(
+            radar, self.scene, facets, self.geometry, self.frames, self.ranges,
+            self.config.bins_per_cell, max(1, self.config.max_depth - 1),
+            surface_velocities(self.scene, self.motion.motion)[list(facets.surface_index)],
+            self.config.beam_cull,
+            self.motion.shape_motions(facets.shape_ids) if self.motion.rotating else None)
+        self.orders = max(self.config.max_depth, 1 if facets is None else 2)
+
+    def _facets(self, where: str, physical_optics: Any) -> FacetSet | None:
+        """The facets that use physical optics, or None; their shapes stop multipath rays."""
+        if physical_optics is False or physical_optics is None:
+            return None
+        if self.setup.bistatic or self.setup.planar:
+            raise ParameterError(where, "physical_optics", "false with a bistatic receiver or "
+                                 "in 2D mode (physical optics is monostatic and 3-D)",
+                                 physical_optics)
+        facets = scene_facets(self.scene, physical_optics)
+        if len(facets) == 0:          # True, and no mesh with a radar material
+            return None
+        self.setup = dataclasses.replace(self.setup, absorbers=facets.shapes)
+        return facets
+
+    def chunks(self, rvp: bool, normalized: bool, progress: bool
+               ) -> Iterator[tuple[NDArray, NDArray]]:
+        """(sweep indices, histograms (sweeps, orders, bins)) chunk by chunk: the tracer's,
+        plus the physical-optics echoes of the same sweeps (one path for :func:`trace` and
+        :func:`simulate_scene`)."""
+        if self.motion.moving:
+            source = self._moving_chunks(rvp, normalized, progress)
+        else:
+            source = self.integrator.trace_histograms(
+                self.scene, self.geometry, self.radar, self.frames, self.scatterers, self.grid,
+                sweeps=self.sweeps, config=self.config, rvp=rvp, normalized=normalized,
+                progress=progress, setup=self.setup, backscatter=self.backscatter)
+        for chosen, hist in source:
+            if self.facet_echoes is None:
+                yield chosen, hist
+                continue
+            # the scene is in the state of these sweeps here (the moving generator is
+            # suspended inside its sweep), so the PO shadow rays see the shapes where they are
+            po = self.facet_echoes.histogram(chosen, self.orders, rvp, normalized)
+            po[:, :hist.shape[1]] += hist
+            yield chosen, po
+
+    def _moving_chunks(self, rvp: bool, normalized: bool, progress: bool
+                       ) -> Iterator[tuple[NDArray, NDArray]]:
+        """One scene state per sweep: the moving shapes are put where they are at mid-sweep,
+        the time at which the integrator places the scatterers and casts the shadow rays, so
+        a scatterer on a moving face stays on its visible side (the shadow ray's end sits only
+        ``SURFACE_OFFSET (1 + |p|)``, ~0.4 mm, above it, less than the 2 mm a 0.5 m/s shape
+        moves in a 4 ms sweep: blocks of several sweeps would shadow moving faces by
+        themselves). Static scenes keep the chunked path of :meth:`chunks`."""
+        totals: dict[str, int] = {}
+        try:
+            for sweep in tqdm(self.sweeps, disable=not progress, desc="trace (moving shapes)",
+                              unit="sweep"):
+                middle = float(self.geometry["slow_time"][sweep]) + self.radar.sweep_duration / 2
+                self.motion.set_time(middle)
+                yield from self.integrator.trace_histograms(
+                    self.scene, self.geometry, self.radar, self.frames,
+                    self.motion.scatterers_at(self.scatterers, middle),
+                    self.grid, sweeps=np.array([sweep]), config=self.config, rvp=rvp,
+                    normalized=normalized, progress=False, setup=self.setup,
+                    backscatter=self.backscatter)
+                for key, value in self.integrator.statistics.items():
+                    totals[key] = totals.get(key, 0) + value
+        finally:
+            self.motion.reset()
+            self.integrator.statistics = totals
+
+    def attrs(self) -> dict[str, Any]:
+        return {"seed": int(self.config.seed), "scatterer_count": self.scatterers.surface_count,
+                "point_target_count": self.scatterers.point_target_count,
+                "scatterer_density": float(self.scatterers.density),
+                "bins_per_cell": int(self.config.bins_per_cell),
+                "acquisition_sweeps": int(self.total),
+                "integrator": self.config.to_dict(), "scene": str(self.scene_name),
+                **{f"traced_{key}": int(value)
+                   for key, value in self.integrator.statistics.items()},
+                "backscatter": int(self.backscatter),
+                **({} if self.facet_echoes is None else {
+                    "physical_optics_shapes": list(self.facet_echoes.facets.shape_ids),
+                    "physical_optics_subfacets": len(self.facet_echoes),
+                    "physical_optics_chains": self.facet_echoes.chain_counts}),
+                "motion": self.motion.describe(),
+                "receiver_offset": [float(v) for v in self.setup.receiver_offset],
+                "rays_per_sweep": 0 if self.setup.rays is None else len(self.setup.rays),
+                "trajectory_kind": (self.recorded or self.trajectory).kind,
+                "trajectory_straight": int((self.recorded or self.trajectory).is_straight),
+                "config": {"trajectory": self.trajectory.describe(),
+                           "navigation": describe_navigation(self.navigation)}}
+
+    def geometry_of(self, sweeps: NDArray) -> tuple[dict[str, NDArray], dict | None]:
+        """(recorded, true) geometry of some sweeps; true is None without navigation errors."""
+        true = {key: value[sweeps] for key, value in self.geometry.items()}
+        if self.recorded_geometry is None:
+            return true, None
+        return {key: value[sweeps] for key, value in self.recorded_geometry.items()}, true
+
+
+def _moving_scatterers(scatterers: ScattererSet, shape_velocities: NDArray) -> ScattererSet:
+    """A copy of a scatterer set whose surface scatterers move with their shape (row
+    ``table_row`` = ``shape_index`` of :func:`mitsar.scene.surfaces.scene_surfaces`)."""
+    velocity = scatterers.velocity.copy()
+    surface = scatterers.surface_count
+    velocity[:surface] = shape_velocities[scatterers.table_row[:surface]]
+    return dataclasses.replace(scatterers, velocity=velocity, device={})
+
+
+def _facet_limits(triangles: NDArray, positions: NDArray, low: float, high: float,
+                  radar: Radar, max_speed: float) -> tuple[float, float]:
+    """Widen the apparent-range limits to the PO facets' ranges (single facets; chains lie
+    within the multipath limits), with the Doppler margin of :func:`_multipath_limits`."""
+    lo, hi = triangles.reshape(-1, 3).min(axis=0), triangles.reshape(-1, 3).max(axis=0)
+    nearest = np.linalg.norm(positions - np.clip(positions, lo, hi), axis=1).min()
+    corners = np.array(np.meshgrid(*zip(lo, hi, strict=True), indexing="ij")).reshape(3, -1).T
+    farthest = np.linalg.norm(positions[:, None, :] - corners[None], axis=-1).max()
+    margin = (radar.carrier_frequency / radar.chirp_rate) * 2.0 * max_speed \
+        + 2 * radar.range_resolution
+    return min(low, nearest - margin), max(high, min(farthest, radar.max_range) + margin)
+
+
+def _multipath_limits(scene: Any, positions: NDArray, low: float, high: float, radar: Radar,
+                      max_speed: float, max_depth: int, receiver_offset: NDArray
+                      ) -> tuple[float, float]:
+    """Widen the apparent-range limits for multipath paths.
+
+    An image path of ``k <= max_depth - 1`` reflections has ``k + 1`` segments, each no longer
+    than the diagonal ``D`` of the box holding the scene and the antennas, so its half length is
+    at most ``max_depth D / 2``. The grid stops at the radar's ``max_range`` (beat frequencies
+    beyond it are outside the receiver's band), so longer paths are dropped.
+    """
+    box = scene.bbox()
+    lo = np.minimum(np.array([float(v) for v in box.min]), positions.min(axis=0))
+    hi = np.maximum(np.array([float(v) for v in box.max]), positions.max(axis=0))
+    lo, hi = lo - np.abs(receiver_offset), hi + np.abs(receiver_offset)
+    diagonal = float(np.linalg.norm(hi - lo))
+    margin = (radar.carrier_frequency / radar.chirp_rate) * 2.0 * max_speed \
+        + 2 * radar.range_resolution
+    far = min(0.5 * max_depth * diagonal, radar.max_range) + margin
+    near = 0.5 * float(np.linalg.norm(receiver_offset)) - margin
+    return min(low, near), max(high, far)
+
+
+def _select_sweeps(where: str, sweeps: Any, total: int) -> NDArray[np.int64]:
+    if sweeps is None:
+        return np.arange(total)
+    if isinstance(sweeps, slice):
+        chosen = np.arange(total)[sweeps]
+    else:
+        chosen = np.asarray(sweeps)
+        if chosen.ndim != 1 or not np.issubdtype(chosen.dtype, np.integer):
+            raise ParameterError(where, "sweeps", "None, a slice or a 1-D array of sweep "
+                                 "indices", sweeps)
+        chosen = chosen.astype(np.int64)
+    if len(chosen) == 0 or chosen.min() < 0 or chosen.max() >= total \
+            or np.any(np.diff(chosen) <= 0):
+        raise ParameterError(where, "sweeps", f"increasing sweep indices in [0, {total})",
+                             sweeps)
+    return chosen
+
+
+_DEFAULT_INTEGRATORS: dict[int, tuple[Any, Any]] = {}
+"""Default integrators of recently used scenes (id -> (scene, integrator)); the integrator
+caches the scene's scatterers, so tracing a loaded scene again does not resample it."""
+
+
+def _radar_integrator(scene: Any, mi: Any) -> Any:
+    """The scene's ``radar`` integrator if the XML declares one, else a default one."""
+    integrator = scene.integrator()
+    if getattr(integrator, "MITSAR_KIND", None) == "radar":
+        return integrator
+    if id(scene) not in _DEFAULT_INTEGRATORS:
+        while len(_DEFAULT_INTEGRATORS) >= 2:
+            _DEFAULT_INTEGRATORS.pop(next(iter(_DEFAULT_INTEGRATORS)))
+        _DEFAULT_INTEGRATORS[id(scene)] = (scene, mi.load_dict({"type": "radar"}))
+    return _DEFAULT_INTEGRATORS[id(scene)][1]
+
+
+# --------------------------------------------------------------------------------------------
+# Public API
+# --------------------------------------------------------------------------------------------
