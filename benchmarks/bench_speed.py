@@ -87,19 +87,22 @@ def main() -> None:
 
     scene = load_scene("control_volume")
     track = mitsar.Trajectory.linear(START, [0.5, 0.0, 0.0], (args.sweeps + 0.5) / RADAR.prf)
-    cases = {"mitsar, a shadow ray per sweep": 0.0, "mitsar, shadow-ray reuse (3 cm)": None}
+    # (visibility_feature, deterministic): all cores unless said; the default is one thread
+    cases = {"mitsar, a shadow ray per sweep": (0.0, False),
+             "mitsar, shadow-ray reuse (3 cm)": (None, False),
+             "mitsar, reuse, one thread (deterministic default)": (None, True)}
     python, reason = _sionna_python(args.sionna_python)
     best: dict[str, dict] = {}
     products = {}
-    for name, feature in cases.items():  # cold calls: sampling, upload, compilation
+    for name, (feature, serial) in cases.items():  # cold calls: sampling, upload, compilation
         products[name] = trace(RADAR, track, LOOK, scene, density=args.density,
-                               visibility_feature=feature)
+                               visibility_feature=feature, deterministic=serial)
     sionna_runs = []
     for _ in range(args.rounds):
-        for name, feature in cases.items():
+        for name, (feature, serial) in cases.items():
             start, start_cpu = time.perf_counter(), _cpu()
             hist = trace(RADAR, track, LOOK, scene, density=args.density,
-                         visibility_feature=feature)
+                         visibility_feature=feature, deterministic=serial)
             wall, cpu = time.perf_counter() - start, _cpu() - start_cpu
             if name not in best or wall < best[name]["wall"]:
                 best[name] = {"wall": wall, "cpu": cpu, "attrs": hist.attrs}
@@ -112,14 +115,14 @@ def main() -> None:
     print(f"paper room (control_volume): {attrs['scatterer_count']:,} scatterers, "
           f"{args.sweeps} sweeps, {args.rounds} alternated rounds, best of each; load average "
           f"{os.getloadavg()[0]:.1f} on {os.cpu_count()} cores (shared machine)")
-    print(f"{'case':36s} {'contrib.':>11s} {'shadow rays':>11s} {'wall s':>7s} {'CPU s':>6s} "
+    print(f"{'case':50s} {'contrib.':>11s} {'shadow rays':>11s} {'wall s':>7s} {'CPU s':>6s} "
           f"{'M contrib/s':>11s} {'ms/pos':>7s}")
     per_position = {}
     for name, row in best.items():
         a = row["attrs"]
-        rays = a["traced_shadow_rays"] if cases[name] == 0.0 else a["traced_visibility_rays"]
+        rays = a["traced_shadow_rays"] if cases[name][0] == 0.0 else a["traced_visibility_rays"]
         per_position[name] = row["wall"] / args.sweeps
-        print(f"{name:36s} {a['traced_shadow_rays']:11,d} {rays:11,d} {row['wall']:7.3f} "
+        print(f"{name:50s} {a['traced_shadow_rays']:11,d} {rays:11,d} {row['wall']:7.3f} "
               f"{row['cpu']:6.2f} {a['traced_shadow_rays'] / row['wall'] / 1e6:11.1f} "
               f"{1e3 * per_position[name]:7.2f}")
     reuse = best["mitsar, shadow-ray reuse (3 cm)"]["attrs"]
@@ -129,7 +132,7 @@ def main() -> None:
           f"{best['mitsar, a shadow ray per sweep']['cpu'] / best['mitsar, shadow-ray reuse (3 cm)']['cpu']:.2f}x CPU")  # noqa: E501
     if python:
         sionna = min(run["seconds_per_position"] for run in sionna_runs)
-        print(f"{'Sionna RT PathSolver (1 position)':36s} {sionna_runs[-1]['paths']:11,d} "
+        print(f"{'Sionna RT PathSolver (1 position)':50s} {sionna_runs[-1]['paths']:11,d} "
               f"{sionna_runs[-1]['samples_per_src']:11,d} {sionna:7.3f} {'':6s} "
               f"{sionna_runs[-1]['paths'] / sionna / 1e6:11.1f} {1e3 * sionna:7.2f}")
         for name, seconds in per_position.items():

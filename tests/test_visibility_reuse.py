@@ -23,8 +23,8 @@ ABSORBER = '<bsdf type="doublelobe"><string name="preset" value="absorber"/></bs
 
 
 def _error_db(value, reference):
-    return 10 * math.log10(np.sum(np.abs(value - reference) ** 2)
-                           / np.sum(np.abs(reference) ** 2))
+    error = np.sum(np.abs(value - reference) ** 2)  # 0 when bit-identical (one Dr.Jit thread)
+    return -math.inf if error == 0 else 10 * math.log10(error / np.sum(np.abs(reference) ** 2))
 
 
 # --- the blocks ----------------------------------------------------------------------------------

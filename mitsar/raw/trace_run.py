@@ -10,6 +10,7 @@ sweeps.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import os
 from collections.abc import Iterator, Sequence
@@ -20,6 +21,7 @@ from numpy.typing import NDArray
 from tqdm.auto import tqdm
 
 from mitsar.budget import require_memory
+from mitsar.checks import boolean
 from mitsar.errors import ParameterError
 from mitsar.model import histogram as hg
 from mitsar.model.geometry.attitude import Look, antenna_frame
@@ -77,13 +79,15 @@ class TraceRun:
                  backscatter: bool = True,
                  navigation: Trajectory | NavigationErrors | None = None,
                  motion: dict | None = None,
-                 physical_optics: bool | Sequence[str] | None = False) -> None:
+                 physical_optics: bool | Sequence[str] | None = False,
+                 deterministic: bool = True) -> None:
         if not isinstance(radar, Radar):
             raise ParameterError(where, "radar", "a mitsar.Radar", type(radar))
         if not isinstance(trajectory, Trajectory):
             raise ParameterError(where, "trajectory", "a mitsar.Trajectory", type(trajectory))
         if not isinstance(look, Look):
             raise ParameterError(where, "look", "a mitsar.Look", type(look))
+        self.deterministic = boolean(where, "deterministic", deterministic)
         radar.check_prf(trajectory.max_speed())
         total = sweep_count(radar, trajectory.duration)
         if total < 1:
@@ -178,7 +182,13 @@ class TraceRun:
                ) -> Iterator[tuple[NDArray, NDArray]]:
         """(sweep indices, histograms (sweeps, orders, bins)) chunk by chunk: the tracer's,
         plus the physical-optics echoes of the same sweeps (one path for :func:`trace` and
-        :func:`simulate_scene`)."""
+        :func:`simulate_scene`). Deterministic runs trace on one Dr.Jit thread
+        (:func:`_dr_threads`)."""
+        with _dr_threads(1 if self.deterministic else None):
+            yield from self._chunks(rvp, normalized, progress)
+
+    def _chunks(self, rvp: bool, normalized: bool, progress: bool
+                ) -> Iterator[tuple[NDArray, NDArray]]:
         if self.motion.moving:
             source = self._moving_chunks(rvp, normalized, progress)
         else:
@@ -334,3 +344,26 @@ def _radar_integrator(scene: Any, mi: Any) -> Any:
 # --------------------------------------------------------------------------------------------
 # Public API
 # --------------------------------------------------------------------------------------------
+
+
+@contextlib.contextmanager
+def _dr_threads(count: int | None) -> Iterator[None]:
+    """Dr.Jit's LLVM thread count inside the block (``None``: unchanged).
+
+    The deposit adds float64 contributions into shared histogram bins with atomic scatter-adds
+    (plugins/integrators/radar/deposit.py); on several threads their order, and so the last
+    bits of every bin, change from run to run (~1e-16 of the peak). On one thread the order is
+    the lanes' own: bit-identical raw data run after run (docs/integrator.md, determinism).
+    """
+    if count is None:
+        yield
+        return
+    # lazy: Dr.Jit is loaded once a variant is set (register_plugins), never on import
+    import drjit as dr
+
+    previous = dr.thread_count()
+    dr.set_thread_count(count)
+    try:
+        yield
+    finally:
+        dr.set_thread_count(previous)
