@@ -29,6 +29,7 @@ from typing import Any
 import matplotlib.pyplot as plt
 
 from mitsar.ambiguity.run import run_ambiguity_experiment
+from mitsar.ambiguity.sweep import is_ambiguity_document, run_ambiguity_sweep
 from mitsar.budget import set_memory_limit
 from mitsar.errors import MitsarError
 from mitsar.experiment import montecarlo
@@ -371,6 +372,17 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     if out.exists() and not out.is_dir():
         raise ProductFileError(f"{out}: exists and is not a folder (-o names the sweep folder; "
                                "choose another name)")
+    if args.ambiguity:
+        table = run_ambiguity_sweep(args.experiment, args.vary, out, overrides=args.set,
+                                    realisations=args.realisations, scheduler=args.scheduler,
+                                    workers=args.workers, restart=args.restart,
+                                    progress=not args.quiet)
+        _log(args, f"wrote {out / 'sweep.nc'}, {out / 'sweep_ambiguity.csv'} and figures/: "
+                   f"{table.attrs['runs']} points, {table.attrs['failed_runs']} failed")
+        return 0
+    if is_ambiguity_document(read_toml(Path(args.experiment))):
+        raise MitsarError(f"sweep: {args.experiment} is an ambiguity file (docs/ambiguity.md); "
+                          "pass --ambiguity to sweep its ambiguity fractions")
     table = run_sweep(args.experiment, args.vary, out, realisations=args.realisations,
                       algorithms=args.algorithms, seed=args.seed, overrides=args.set,
                       scheduler=args.scheduler, workers=args.workers, restart=args.restart,
@@ -614,6 +626,9 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_argument("-a", "--algorithms", nargs="+", choices=ALGORITHMS,
                      help="algorithms (default: the experiment's [focus] algorithm)")
     sub.add_argument("--seed", type=int, help="campaign seed (default: [simulation] seed)")
+    sub.add_argument("--ambiguity", action="store_true",
+                     help="the file is an ambiguity file (docs/ambiguity.md): map every point "
+                     "and tabulate the area fractions per trajectory (sweep_ambiguity.csv)")
     sub.add_argument("--restart", action="store_true",
                      help="discard the records of an earlier run in DIR instead of reusing them")
     _add_set(sub)

@@ -229,24 +229,28 @@ STALE_AGE = 3600.0
 
 
 def remove_stale_temporaries(path: str | os.PathLike) -> list[Path]:
-    """Remove the temporary files a killed writer left beside ``path`` (docs/reliability.md §5).
+    """Remove the temporaries a killed writer left beside ``path`` (docs/reliability.md §5).
 
-    :func:`atomic_output` names its temporary ``.NAME.PID.XXXX.tmpSUFFIX``; one whose process
-    no longer runs is stale (SIGKILL leaves it behind). Older names without a process id are
-    stale after :data:`STALE_AGE` seconds. Files of running writers are left alone.
+    :func:`atomic_output` names its temporary file ``.NAME.PID.XXXX.tmpSUFFIX`` and
+    :func:`atomic_directory` its temporary folder (a ``.zarr`` store) the same way, plus
+    ``....tmpSUFFIX.old`` for the store it sets aside while replacing it; one whose process no
+    longer runs is stale (SIGKILL leaves it behind). Older names without a process id are
+    stale after :data:`STALE_AGE` seconds (a folder by its own modification time). Those of
+    running writers are left alone.
 
     Returns
     -------
     list of Path
-        The files removed.
+        The files and folders removed.
     """
     path = Path(path)
     removed = []
     if not path.parent.is_dir():
         return removed
     pattern = re.compile(re.escape(f".{path.name}.") + r"(?:(\d+)\.)?[^/]*"
-                         + re.escape(f".tmp{path.suffix}") + "$")
-    for candidate in path.parent.glob(f".{glob.escape(path.name)}.*.tmp{path.suffix}"):
+                         + re.escape(f".tmp{path.suffix}") + r"(\.old)?$")
+    stem = f".{glob.escape(path.name)}.*.tmp{glob.escape(path.suffix)}"
+    for candidate in sorted({*path.parent.glob(stem), *path.parent.glob(stem + ".old")}):
         match = pattern.match(candidate.name)
         if match is None:
             continue
@@ -254,9 +258,14 @@ def remove_stale_temporaries(path: str | os.PathLike) -> list[Path]:
             if match.group(1) is not None:
                 if _process_alive(int(match.group(1))):
                     continue
-            elif time.time() - candidate.stat().st_mtime < STALE_AGE:
+            elif time.time() - candidate.lstat().st_mtime < STALE_AGE:
                 continue
-            candidate.unlink()
+            if candidate.is_dir() and not candidate.is_symlink():
+                shutil.rmtree(candidate)
+            elif match.group(2) is None:  # ".old" only ever names a set-aside folder
+                candidate.unlink()
+            else:
+                continue
             removed.append(candidate)
         except OSError:  # gone meanwhile, or not ours to remove
             continue
@@ -491,6 +500,7 @@ def atomic_directory(path: str | os.PathLike, overwrite: bool = False) -> Iterat
     """
     path = Path(path)
     _check_store_writable(path, overwrite)
+    remove_stale_temporaries(path)
     tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.{os.getpid()}.",
                                 suffix=f".tmp{path.suffix}", dir=path.parent))
     try:

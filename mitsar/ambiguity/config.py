@@ -7,6 +7,7 @@ The ``[radar]``, ``[look]`` and ``[trajectory]`` tables are those of experiment 
 
 from __future__ import annotations
 
+import copy
 import json
 import os
 import tomllib
@@ -21,7 +22,7 @@ from mitsar.experiment.parsers import parse_look, parse_radar, parse_trajectory
 from mitsar.experiment.table import Table
 from mitsar.model.geometry.attitude import Look
 
-__all__ = ["load_ambiguity_experiment"]
+__all__ = ["ambiguity_from_dict", "load_ambiguity_experiment"]
 
 
 MAX_STATES = 10**7
@@ -103,9 +104,33 @@ def load_ambiguity_experiment(path: str | os.PathLike) -> dict[str, Any]:
         data = tomllib.loads(path.read_text(encoding="utf-8"))
     except tomllib.TOMLDecodeError as error:
         raise ParameterError(where, "file", "valid TOML", str(error)) from error
-    top = Table(data, "", where, path.resolve().parent)
+    return ambiguity_from_dict(data, where, path.resolve().parent, path.stem)
+
+
+def ambiguity_from_dict(data: dict[str, Any], where: str, base: str | os.PathLike,
+                        default_name: str = "ambiguity") -> dict[str, Any]:
+    """Validate an ambiguity document already read (e.g. a sweep's point, ``--set`` applied).
+
+    Parameters
+    ----------
+    data : dict
+        The TOML document (format in ``docs/ambiguity.md``); not modified.
+    where : str
+        Name used in error messages (the file, or the file and its variation).
+    base : path-like
+        Folder against which relative scene paths resolve (the file's folder).
+    default_name : str
+        ``name`` when the document has none (the file's stem).
+
+    Returns
+    -------
+    dict
+        As :func:`load_ambiguity_experiment`.
+    """
+    data = copy.deepcopy(data)
+    top = Table(data, "", where, Path(base))
     out: dict[str, Any] = {}
-    out["name"] = top.string("name", path.stem)
+    out["name"] = top.string("name", default_name)
     out["description"] = top.string("description", "")
     top.seen.add("required_resolution")
     required = top.data.get("required_resolution", 0.10)

@@ -7,6 +7,8 @@ import os
 from pathlib import Path
 from typing import Any
 
+import xarray as xr
+
 from mitsar.ambiguity.comparison import comparison_from_products, comparison_table
 from mitsar.ambiguity.config import load_ambiguity_experiment
 from mitsar.ambiguity.maps import ambiguity, overall_fractions, surface_summary
@@ -16,7 +18,48 @@ from mitsar.ambiguity.shadows import planes_scene
 from mitsar.io import atomic_output, save, write_json
 from mitsar.scene.loading import load_scene
 
-__all__ = ["run_ambiguity_experiment"]
+__all__ = ["ambiguity_products", "run_ambiguity_experiment"]
+
+
+def ambiguity_products(spec: dict[str, Any], progress: bool = False
+                       ) -> dict[str, xr.Dataset]:
+    """The ambiguity product of every trajectory of a validated ambiguity file.
+
+    Parameters
+    ----------
+    spec : dict
+        As returned by :func:`~mitsar.ambiguity.config.load_ambiguity_experiment` (or
+        :func:`~mitsar.ambiguity.config.ambiguity_from_dict`).
+    progress : bool
+        Progress bars of the map evaluation.
+
+    Returns
+    -------
+    dict
+        Trajectory name -> product of :func:`~mitsar.ambiguity.maps.ambiguity`
+        (docs/ambiguity.md, the product), with the file's effective values in ``config``.
+    """
+    options = dict(spec["options"])
+    shapes, exclude = options.pop("shapes", None), options.pop("exclude", ())
+    spacing = options.pop("spacing")
+    if spec["scene"] is not None:
+        scene = load_scene(spec["scene"])
+        points = sample_surfaces(scene, spacing, shapes=shapes, exclude=exclude)
+    else:
+        planes = spec["planes"]
+        points = SurfacePoints.concatenate([
+            plane_points(p["origin"], p["axis_u"], p["axis_v"], p["size"], spacing, p["name"])
+            for p in planes])
+        scene = planes_scene(planes) if options.get("shadowing", True) else None
+    products = {}
+    for name, trajectory in spec["trajectories"].items():
+        look = spec["look"][name] if isinstance(spec["look"], dict) else spec["look"]
+        product = ambiguity(spec["radar"], trajectory, look, points,
+                            spec["required_resolution"], scene=scene, spacing=spacing,
+                            progress=progress, **options)
+        product.attrs["config"] = json.dumps(spec["config"])
+        products[name] = product
+    return products
 
 
 def run_ambiguity_experiment(path: str | os.PathLike, out_dir: str | os.PathLike, *,
@@ -39,18 +82,6 @@ def run_ambiguity_experiment(path: str | os.PathLike, out_dir: str | os.PathLike
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    options = dict(spec["options"])
-    shapes, exclude = options.pop("shapes", None), options.pop("exclude", ())
-    spacing = options.pop("spacing")
-    if spec["scene"] is not None:
-        scene = load_scene(spec["scene"])
-        points = sample_surfaces(scene, spacing, shapes=shapes, exclude=exclude)
-    else:
-        planes = spec["planes"]
-        points = SurfacePoints.concatenate([
-            plane_points(p["origin"], p["axis_u"], p["axis_v"], p["size"], spacing, p["name"])
-            for p in planes])
-        scene = planes_scene(planes) if options.get("shadowing", True) else None
     make_figures = spec["outputs"]["figures"] if figures is None else figures
     suffix = "." + spec["outputs"]["format"]
     files: list[str] = []
@@ -58,14 +89,8 @@ def run_ambiguity_experiment(path: str | os.PathLike, out_dir: str | os.PathLike
                                "required_resolution": spec["required_resolution"],
                                "trajectories": {}}
     several = len(spec["trajectories"]) > 1
-    products = {}
-    for name, trajectory in spec["trajectories"].items():
-        look = spec["look"][name] if isinstance(spec["look"], dict) else spec["look"]
-        product = ambiguity(spec["radar"], trajectory, look, points,
-                            spec["required_resolution"], scene=scene, spacing=spacing,
-                            progress=progress, **options)
-        product.attrs["config"] = json.dumps(spec["config"])
-        products[name] = product
+    products = ambiguity_products(spec, progress=progress)
+    for name, product in products.items():
         prefix = f"ambiguity_{name}" if several else "ambiguity"
         files.append(str(save(product, out_dir / f"{prefix}.nc", overwrite=overwrite)))
         if make_figures:

@@ -41,6 +41,7 @@ from mitsar.checks import integer
 from mitsar.errors import MitsarError, ParameterError
 from mitsar.experiment import runs
 from mitsar.experiment.campaign import INLINE, Task, run_tasks
+from mitsar.experiment.coverage import check_target_in_grid
 from mitsar.experiment.loading import load_experiment
 from mitsar.experiment.options import Experiment
 from mitsar.experiment.paper import paper_table
@@ -217,6 +218,8 @@ def run(experiment: Any, realisations: int = 10,
     if target is None:
         raise ParameterError("montecarlo", "target", "a target position ([metrics] target or "
                              "a [[targets]] entry)", None)
+    # A target outside the image is refused before the first realisation, not by each one.
+    check_target_in_grid(experiment, target, algorithms, "montecarlo")
     islr_extent = experiment.metrics.islr_extent if islr_extent is None else islr_extent
     first_seed = experiment.simulation.seed if first_seed is None else int(first_seed)
     config = {"experiment": experiment.config, "algorithms": algorithms,

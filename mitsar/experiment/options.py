@@ -169,8 +169,8 @@ class Experiment:
     navigation : NavigationErrors or None
         ``[trajectory.errors]``: what the navigation system records differs from the track.
     motion : dict
-        ``[motion.<shape id>] velocity``: shapes of the scene that move [m/s]
-        (:mod:`mitsar.scene.motion`).
+        ``[motion.<shape id>]``: shapes of the scene that move: a velocity [m/s], or a
+        :class:`mitsar.scene.motion.ShapeMotion` (angular velocity, centre, sampled path).
     name, description : str
         Free text from the file.
     source : Path or None
@@ -190,7 +190,7 @@ class Experiment:
     metrics: MetricsOptions
     scene: str | None = None
     navigation: NavigationErrors | None = None
-    motion: dict[str, tuple[float, float, float]] = field(default_factory=dict)
+    motion: dict[str, Any] = field(default_factory=dict)
     name: str = ""
     description: str = ""
     source: Path | None = None

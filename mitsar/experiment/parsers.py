@@ -34,6 +34,8 @@ from mitsar.model.geometry.navigation import NavigationErrors
 from mitsar.model.geometry.trajectory import Trajectory, is_vertical
 from mitsar.model.radar import Radar
 from mitsar.model.targets import Background, PointTarget
+from mitsar.scene.motion import Motion
+from mitsar.scene.motion import parse_motion as parse_motion_mapping
 
 __all__ = [
     "check_grid",
@@ -373,21 +375,41 @@ def parse_metrics(t: Table | None) -> MetricsOptions:
     return MetricsOptions(target, extent if isinstance(extent, str) else float(extent))
 
 
-def parse_motion(t: Table | None) -> dict[str, tuple[float, float, float]]:
-    """``[motion.<shape id>]``: the ``velocity`` [m/s] of a moving shape of the scene
-    (:mod:`mitsar.scene.motion`; the ids are checked against the scene when it is loaded)."""
+def parse_motion(t: Table | None) -> dict[str, Motion]:
+    """``[motion.<shape id>]``: ``velocity`` [m/s], ``angular_velocity_deg`` [deg/s] and
+    ``centre`` [m], or ``path = {times, positions, attitude_deg | rotation_vector}``, of a
+    moving shape of the scene (:mod:`mitsar.scene.motion`; the ids are checked against the
+    scene when it is loaded)."""
     if t is None:
         return {}
-    motion = {}
+    given = {}
     for shape_id in list(t.data):
         if not isinstance(t.data[shape_id], dict):
             raise t.error(shape_id, "a table [motion.<shape id>] with velocity = [vx, vy, vz]",
                           t.data[shape_id])
         shape = t.table(shape_id)
-        motion[shape_id] = shape.vector("velocity", 3, unit="m/s")
+        entry = {key: value for key, value in (
+            ("velocity", shape.vector("velocity", 3, None, unit="m/s")),
+            ("angular_velocity_deg", shape.vector("angular_velocity_deg", 3, None,
+                                                  unit="deg/s")),
+            ("centre", shape.vector("centre", 3, None, unit="m"))) if value is not None}
+        path = shape.table("path")
+        if path is not None:
+            entry["path"] = {key: value for key, value in (
+                ("times", path.numbers("times", 2, unit="s")),
+                ("positions", path.vectors("positions", 3, 2, unit="m")),
+                ("attitude_deg", path.vectors("attitude_deg", 3, 2, None, unit="deg")),
+                ("rotation_vector", path.vectors("rotation_vector", 3, 2, None, unit="rad")))
+                if value is not None}
+            shape.out["path"] = path.finish()
+        if not entry:
+            raise t.error(shape_id, "velocity, angular_velocity_deg or path", "none of them")
+        given[shape_id] = entry
         t.out[shape_id] = shape.finish()
     t.finish()
-    return motion
+    return parse_motion_mapping(t.where, {key: value if set(value) - {"velocity"}
+                                          else value["velocity"]
+                                          for key, value in given.items()})
 
 
 def parse_scene(t: Table) -> str | None:

@@ -13,6 +13,13 @@ The table is an :class:`xarray.Dataset` with one dimension per varied key (named
 then ``realisation`` and ``algorithm``; it is written as ``sweep.nc`` and, one row per run and
 algorithm, ``sweep.csv``, with one figure per metric in ``figures/`` (docs/experiments.md
 §Campaigns).
+
+Stages above this one add their own measurements of every point without being imported here
+(imports run down, docs/design.md §3): a :class:`PointMeasure` names a module-level function of
+the point's document, and its quantities become further variables of the same table, with the
+dimension the measure names (e.g. ``trajectory`` for the ambiguity fractions of
+:mod:`mitsar.ambiguity.sweep`). ``images=False`` sweeps a file that is not an experiment (an
+ambiguity file) with its measures only.
 """
 
 from __future__ import annotations
@@ -23,7 +30,7 @@ import json
 import math
 import os
 import tomllib
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -42,7 +49,8 @@ from mitsar.io import atomic_writer, save
 from mitsar.plots.products import save_figure
 from mitsar.version import __version__
 
-__all__ = ["Variation", "parse_variation", "run_sweep", "sweep_points", "sweep_table"]
+__all__ = ["PointMeasure", "Variation", "measure_table", "parse_variation", "run_sweep",
+           "sweep_points", "sweep_table"]
 
 TABLE_FILE = "sweep.nc"
 CSV_FILE = "sweep.csv"
@@ -69,6 +77,39 @@ class Variation:
 
     key: str
     values: tuple
+
+
+@dataclass(frozen=True)
+class PointMeasure:
+    """A measurement of every sweep point, supplied by a stage above the experiment's.
+
+    Attributes
+    ----------
+    name : str
+        Name of the measure (letters, digits, ``_``): record keys ``pNNNNN-NAME``, the CSV
+        ``sweep_NAME.csv`` and the error variable ``NAME_error``.
+    measure : callable
+        ``measure(document, source) -> {label: {quantity: value}}``: the point's TOML
+        document (variations applied) and the absolute path of the swept file (relative
+        paths resolve against its folder). Module level (Dask sends it by reference);
+        deterministic, as its record is reused when the point's inputs hash matches.
+    check : callable
+        ``check(document, source, where)``: raises :class:`~mitsar.errors.ParameterError`
+        naming the key when the point's document is invalid (called before anything runs).
+    label : str
+        Name of the dimension of the labels (e.g. ``trajectory``).
+    quantities : tuple of str
+        The measured quantities, one table variable each (dims: varied keys, ``label``).
+    units : str
+        Units of the quantities.
+    """
+
+    name: str
+    measure: Callable[[dict, str], dict[str, dict[str, float]]]
+    check: Callable[[dict, str, str], None]
+    label: str
+    quantities: tuple[str, ...]
+    units: str = "1"
 
 
 def _toml_value(text: str) -> Any:
@@ -148,12 +189,18 @@ def _sweep_run(document: dict, source: str | None, seed: int, algorithms: Sequen
                                experiment.metrics.islr_extent)
 
 
+def _sweep_task(measure: Callable[..., Any] | None, *args: Any) -> Any:
+    """One task of a sweep: a run (``measure`` None, :func:`_sweep_run`) or a point measure."""
+    return _sweep_run(*args) if measure is None else measure(*args)
+
+
 def run_sweep(experiment_path: str | os.PathLike, variations: Sequence[Variation | str],
               out_dir: str | os.PathLike, *, realisations: int = 1,
               algorithms: Sequence[str] | None = None, seed: int | None = None,
               overrides: Sequence[str] = (), scheduler: str | None = None,
               workers: int | None = None, client: Any = None, restart: bool = False,
-              progress: bool = True, figures: bool = True) -> xr.Dataset:
+              progress: bool = True, figures: bool = True,
+              measures: Sequence[PointMeasure] = (), images: bool = True) -> xr.Dataset:
     """Run a sweep of an experiment file (module docstring) into ``out_dir``.
 
     Parameters
@@ -181,11 +228,18 @@ def run_sweep(experiment_path: str | os.PathLike, variations: Sequence[Variation
         reused, a rerun computes only the missing ones).
     progress, figures : bool
         Progress bar; figures of each metric against the varied keys.
+    measures : sequence of PointMeasure
+        Further measurements of every point (one task per point and measure), their
+        quantities added to the table (:func:`measure_table`) and written to
+        ``sweep_NAME.csv``.
+    images : bool
+        Simulate, focus and measure images (the file is an experiment). False: the file is
+        swept with ``measures`` only (e.g. an ambiguity file), ``realisations`` must be 1.
 
     Returns
     -------
     xarray.Dataset
-        The table (:func:`sweep_table`).
+        The table (:func:`sweep_table` merged with a :func:`measure_table` per measure).
 
     Raises
     ------
@@ -198,50 +252,124 @@ def run_sweep(experiment_path: str | os.PathLike, variations: Sequence[Variation
         raise ParameterError("sweep", "--vary", "at least one KEY=VALUES variation", [])
     realisations = integer("sweep", "realisations", realisations, 1)
     base = apply_overrides(read_toml(path), overrides, str(path))
-    nominal = experiment_from_dict(base, source=path)
-    algorithms = [nominal.focus.algorithm] if algorithms is None else list(algorithms)
-    unknown = [a for a in algorithms if a not in ALGORITHMS]
-    if not algorithms or unknown:
-        raise ParameterError("sweep", "algorithms", f"a non-empty list of {ALGORITHMS}",
-                             algorithms)
-    seed = nominal.simulation.seed if seed is None else integer("sweep", "seed", seed, 0)
+    source = str(path.resolve())
+    if images:
+        nominal = experiment_from_dict(base, source=path)
+        config = nominal.config
+        algorithms = [nominal.focus.algorithm] if algorithms is None else list(algorithms)
+        unknown = [a for a in algorithms if a not in ALGORITHMS]
+        if not algorithms or unknown:
+            raise ParameterError("sweep", "algorithms", f"a non-empty list of {ALGORITHMS}",
+                                 algorithms)
+        seed = nominal.simulation.seed if seed is None else integer("sweep", "seed", seed, 0)
+    else:
+        if not measures:
+            raise ParameterError("sweep", "measures", "at least one measure when images are "
+                                 "not simulated (e.g. --ambiguity)", [])
+        if realisations != 1:
+            raise ParameterError("sweep", "realisations", "1 (nothing random is simulated "
+                                 "without images; drop -n)", realisations)
+        config, algorithms = base, []
+        seed = 0 if seed is None else integer("sweep", "seed", seed, 0)
+    names = [m.name for m in measures]
+    if len(set(names)) != len(names):
+        raise ParameterError("sweep", "measures", "measures with distinct names", names)
     points = sweep_points(variations)
     if len(points) * realisations > MAX_POINTS:
         raise ParameterError("sweep", "--vary", f"at most {MAX_POINTS} runs",
                              len(points) * realisations)
-    tasks, documents = [], []
+    tasks, extra = [], {m.name: [] for m in measures}
     for index, point in enumerate(points):
         where = f"{path} --vary " + " ".join(f"{k}={v}" for k, v in point.items())
         document = apply_overrides(copy.deepcopy(base),
                                    [_override(k, v) for k, v in point.items()], where)
-        experiment = experiment_from_dict(document, source=where)  # errors name the key
-        if experiment.metrics_target() is None:
-            raise ParameterError(where, "metrics.target", "a target to measure ([metrics] "
-                                 "target or a [[targets]] entry)", None)
-        documents.append(document)
-        for realisation in range(realisations):
+        if images:
+            experiment = experiment_from_dict(document, source=where)  # errors name the key
+            if experiment.metrics_target() is None:
+                raise ParameterError(where, "metrics.target", "a target to measure ([metrics] "
+                                     "target or a [[targets]] entry)", None)
+        for measure in measures:
+            measure.check(document, source, where)
+            extra[measure.name].append(Task(
+                f"p{index:05d}-{measure.name}", (measure.measure, document, source),
+                fingerprint([document, measure.name, measure.quantities, __version__])))
+        for realisation in range(realisations if images else 0):
             run_seed = task_seed(seed, index, realisation)
-            args = (document, str(path.resolve()), run_seed, algorithms)
+            args = (None, document, source, run_seed, algorithms)
             tasks.append(Task(f"p{index:05d}-r{realisation:03d}", args,
                               fingerprint([document, run_seed, algorithms, __version__])))
     store = PointFolder(Path(out_dir), restart=restart)
-    records = run_tasks(_sweep_run, tasks, store, scheduler=scheduler, workers=workers,
-                        client=client, progress=progress, desc="sweep")
-    table = sweep_table(variations, realisations, algorithms,
-                        [records.get(t.key) for t in tasks], [t.args[2] for t in tasks])
-    table.attrs.update(campaign_seed=seed, experiment_source=str(path.resolve()),
+    records = run_tasks(_sweep_task, tasks + [t for m in measures for t in extra[m.name]],
+                        store, scheduler=scheduler, workers=workers, client=client,
+                        progress=progress, desc="sweep")
+    parts = [sweep_table(variations, realisations, algorithms,
+                         [records.get(t.key) for t in tasks], [t.args[3] for t in tasks])
+             ] if images else []
+    parts += [measure_table(variations, m, [records.get(t.key) for t in extra[m.name]])
+              for m in measures]
+    table = xr.merge(parts, combine_attrs="override")
+    failed = sum(int(np.sum(p[e].values != "")) for p in parts
+                 for e in ("error", *(f"{m.name}_error" for m in measures)) if e in p)
+    table.attrs.update(product="sweep", varied=json.dumps([v.key for v in variations]),
+                       runs=len(tasks) + sum(len(t) for t in extra.values()),
+                       failed_runs=failed, measures=json.dumps(names), images=int(images),
+                       campaign_seed=seed, experiment_source=source,
                        overrides=json.dumps(list(overrides)), mitsar_version=__version__,
-                       experiment=json.dumps(nominal.config))
+                       experiment=json.dumps(config))
     out = Path(out_dir)
     save(table, out / TABLE_FILE, overwrite=True)
-    frame = table.drop_vars([v for v in table.data_vars if "algorithm" not in table[v].dims]
-                            ).to_dataframe().reset_index()
-    frame = frame.merge(table[["seed", "error"]].to_dataframe().reset_index())
-    csv = frame.to_csv(index=False)
-    atomic_writer(out / CSV_FILE, True, lambda tmp: tmp.write_text(csv, encoding="utf-8"))
+    csvs: dict[str, str] = {}
+    if images:
+        frame = table[list(QUANTITIES) + ["failure"]].to_dataframe().reset_index()
+        frame = frame.merge(table[["seed", "error"]].to_dataframe().reset_index())
+        csvs[CSV_FILE] = frame.to_csv(index=False)
+    for m in measures:
+        frame = table[list(m.quantities)].to_dataframe().reset_index().merge(
+            table[[f"{m.name}_error"]].to_dataframe().reset_index())
+        csvs[f"sweep_{m.name}.csv"] = frame.to_csv(index=False)
+    for name, csv in csvs.items():
+        atomic_writer(out / name, True,
+                      lambda tmp, csv=csv: tmp.write_text(csv, encoding="utf-8"))
     if figures:
-        plot_sweep(table, out / FIGURES_FOLDER)
+        if images:
+            plot_sweep(table, out / FIGURES_FOLDER)
+        for m in measures:
+            plot_measure(table, m, out / FIGURES_FOLDER)
     return table
+
+
+def measure_table(variations: Sequence[Variation], measure: PointMeasure,
+                  records: Sequence[dict | None]) -> xr.Dataset:
+    """The variables of one :class:`PointMeasure` from its records (in point order).
+
+    Returns
+    -------
+    xarray.Dataset
+        Dims: the varied keys, then ``measure.label`` (the labels in order of first
+        appearance). A variable per quantity (NaN where not measured: a failed point, or a
+        label that point does not have) and ``NAME_error`` (the error text, "" when it ran).
+    """
+    shape = tuple(len(v.values) for v in variations)
+    results = [r["result"] if r is not None and r.get("status") == "ok" else None
+               for r in records]
+    labels = list(dict.fromkeys(label for r in results if r for label in r))
+    values = np.full((len(records), len(labels), len(measure.quantities)), np.nan)
+    error = np.array([("not run" if r is None else r.get("error", "failed"))
+                      if res is None else "" for r, res in zip(records, results, strict=True)],
+                     dtype=object)
+    for i, result in enumerate(results):
+        for j, label in enumerate(labels):
+            got = (result or {}).get(label, {})
+            values[i, j] = [np.nan if got.get(q) is None else got[q] for q in measure.quantities]
+    dims = tuple(v.key for v in variations)
+    data = {q: (dims + (measure.label,), values[..., k].reshape(shape + (len(labels),)),
+                {"units": measure.units, "measure": measure.name})
+            for k, q in enumerate(measure.quantities)}
+    data[f"{measure.name}_error"] = (dims, error.astype(str).reshape(shape))
+    coords = {v.key: list(v.values) if not any(isinstance(x, list) for x in v.values)
+              else [json.dumps(x) for x in v.values] for v in variations}
+    coords[measure.label] = labels
+    return xr.Dataset(data, coords=coords)
 
 
 def sweep_table(variations: Sequence[Variation], realisations: int, algorithms: Sequence[str],
@@ -289,6 +417,35 @@ def sweep_table(variations: Sequence[Variation], realisations: int, algorithms: 
     table.attrs.update(product="sweep", varied=json.dumps([v.key for v in variations]),
                        runs=count, failed_runs=int(np.sum(error != "")))
     return table
+
+
+def plot_measure(table: xr.Dataset, measure: PointMeasure, folder: Path,
+                 overwrite: bool = True) -> list[Path]:
+    """One figure per quantity of a measure against the first varied key, a line per label
+    (and combination of the other varied keys; at most 8 lines)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    keys = json.loads(table.attrs["varied"])
+    first, others = keys[0], keys[1:]
+    x = table[first].values
+    numeric = np.issubdtype(x.dtype, np.number)
+    combos = list(itertools.product(table[measure.label].values,
+                                    *(range(table.sizes[k]) for k in others)))[:8]
+    written = []
+    for quantity in measure.quantities:
+        figure, ax = plt.subplots(figsize=(5.5, 3.6), constrained_layout=True)
+        for label, *combo in combos:
+            cut = table[quantity].sel({measure.label: label}).isel(
+                dict(zip(others, combo, strict=True)))
+            text = ", ".join([str(label)] + [f"{k}={table[k].values[i]}"
+                                             for k, i in zip(others, combo, strict=True)])
+            ax.plot(x if numeric else np.arange(len(x)), cut.values, marker="o", label=text)
+        if not numeric:
+            ax.set_xticks(np.arange(len(x)), [str(v) for v in x])
+        ax.set(xlabel=first, ylabel=f"{quantity} [{measure.units}]", title=measure.name)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+        written.append(save_figure(figure, folder / f"{quantity}.png", overwrite=overwrite))
+    return written
 
 
 def plot_sweep(table: xr.Dataset, folder: Path, overwrite: bool = True) -> list[Path]:
