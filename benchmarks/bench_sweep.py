@@ -21,36 +21,7 @@ from distributed import Client, LocalCluster
 
 from mitsar.experiment.sweep import run_sweep
 
-EXPERIMENT = """
-[radar]
-[trajectory]
-kind = "waypoints"
-points = [[14.7, 1.4, 4.5], [15.3, 1.4, 4.5]]
-speed = 1.0
-[look]
-off_nadir_deg = 55.71
-[[targets]]
-position = [15.0, 8.0, 0.0]
-[background]
-center = [15.0, 8.0, 0.0]
-size = [0.3, 0.3]
-cell_rcs_db = -20.0
-mode = "pulse"
-[simulation]
-seed = 7
-normalized = true
-[focus]
-algorithm = "bpa"
-window = "rect"
-azimuth_resolution = 0.1
-[focus.grid]
-kind = "slant"
-along_track = [0.0, 0.6, 0.02]
-slant_range = [7.69, 8.29, 0.02]
-[metrics]
-target = [15.0, 8.0, 0.0]
-islr_extent = 2
-"""
+EXPERIMENT = Path(__file__).resolve().parents[1] / "examples" / "campaign_tiny.toml"
 
 VARY = ["look.off_nadir_deg=54:57:1.5", "trajectory.speed=0.5,1.0,1.5"]
 
@@ -62,7 +33,7 @@ def main() -> None:
     args = parser.parse_args()
     folder = Path(tempfile.mkdtemp(prefix="mitsar-bench-sweep-"))
     experiment = folder / "experiment.toml"
-    experiment.write_text(EXPERIMENT, encoding="utf-8")
+    experiment.write_text(EXPERIMENT.read_text(encoding="utf-8"), encoding="utf-8")
     times, tables = {}, {}
     for workers in args.workers:
         start = time.perf_counter()

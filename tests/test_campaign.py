@@ -15,6 +15,7 @@ import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -33,38 +34,7 @@ from mitsar.experiment.campaign import (
 from mitsar.experiment.loading import load_experiment
 from mitsar.experiment.sweep import parse_variation, run_sweep, sweep_points
 
-TINY = """
-name = "sweep-test"
-[radar]
-[trajectory]
-kind = "waypoints"
-points = [[14.7, 1.4, 4.5], [15.3, 1.4, 4.5]]
-speed = 1.0
-[look]
-off_nadir_deg = 55.71
-[[targets]]
-position = [15.0, 8.0, 0.0]
-rcs = 1.0
-[background]
-center = [15.0, 8.0, 0.0]
-size = [0.3, 0.3]
-cell_rcs_db = -20.0
-mode = "pulse"
-[simulation]
-seed = 7
-normalized = true
-[focus]
-algorithm = "bpa"
-window = "rect"
-azimuth_resolution = 0.1
-[focus.grid]
-kind = "slant"
-along_track = [0.0, 0.6, 0.03]
-slant_range = [7.69, 8.29, 0.03]
-[metrics]
-target = [15.0, 8.0, 0.0]
-islr_extent = 2
-"""
+TINY = Path(__file__).resolve().parents[1] / "examples" / "campaign_tiny.toml"
 
 VARY = ["look.off_nadir_deg=54:57:1.5", "trajectory.speed=0.5,1.0,1.5"]
 """3 x 3 points; with 2 realisations, 18 runs."""
@@ -73,7 +43,7 @@ VARY = ["look.off_nadir_deg=54:57:1.5", "trajectory.speed=0.5,1.0,1.5"]
 @pytest.fixture(scope="module")
 def experiment(tmp_path_factory):
     path = tmp_path_factory.mktemp("sweep") / "tiny.toml"
-    path.write_text(TINY, encoding="utf-8")
+    path.write_text(TINY.read_text(encoding="utf-8"), encoding="utf-8")
     return path
 
 

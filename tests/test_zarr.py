@@ -10,6 +10,7 @@ import os
 import subprocess
 import sys
 import textwrap
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -22,34 +23,8 @@ from mitsar.experiment.runs import run_focus, run_simulation, simulate_to
 from mitsar.io import OutputExistsError, ProductFileError, ZarrStream, save
 
 TARGET = (15.0, 8.0, 0.0)
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
-SHORT = """
-[radar]
-[trajectory]
-kind = "waypoints"
-points = [[14.7, 1.4, 4.5], [15.3, 1.4, 4.5]]
-speed = 0.5
-[look]
-off_nadir_deg = 55.71
-[[targets]]
-position = [15.0, 8.0, 0.0]
-[background]
-center = [15.0, 8.0, 0.0]
-size = [0.3, 0.3]
-cell_rcs_db = -20.0
-mode = "pulse"
-[simulation]
-seed = 5
-normalized = true
-[focus]
-algorithm = "bpa"
-window = "rect"
-azimuth_resolution = 0.1
-[focus.grid]
-kind = "slant"
-along_track = [0.0, 0.6, 0.03]
-slant_range = [7.69, 8.29, 0.03]
-"""
 
 # 20 000 sweeps (80 s at 250 Hz) of 200 samples (fs 50 kHz, so max_range <= 10 m): 64 MB of
 # complex samples, flown at 0.1 m/s past the target.
@@ -110,6 +85,12 @@ PROBE = textwrap.dedent("""
 """)
 
 
+def _short():
+    """examples/campaign_tiny.toml flown at 0.5 m/s: 300 sweeps."""
+    return load_experiment(EXAMPLES / "campaign_tiny.toml",
+                           ["trajectory.speed=0.5", "simulation.seed=5"])
+
+
 def _experiment(tmp_path, text, name):
     path = tmp_path / f"{name}.toml"
     path.write_text(text, encoding="utf-8")
@@ -119,7 +100,7 @@ def _experiment(tmp_path, text, name):
 def test_streamed_raw_is_the_in_memory_product_and_loads_back(tmp_path):
     """Chunks of 70 sweeps (the last one 20) give the very samples of the one-piece simulation:
     the pulse-mode background is drawn in the same order."""
-    experiment, _ = _experiment(tmp_path, SHORT, "short")
+    experiment = _short()
     whole = run_simulation(experiment)
     store = tmp_path / "raw.zarr"
     assert simulate_to(experiment, store, chunk_sweeps=70) == whole.sizes["sweep"] == 300
@@ -134,7 +115,7 @@ def test_streamed_raw_is_the_in_memory_product_and_loads_back(tmp_path):
 
 
 def test_image_and_raw_round_trip_through_both_formats(tmp_path):
-    experiment, _ = _experiment(tmp_path, SHORT, "short")
+    experiment = _short()
     raw = run_simulation(experiment)
     image = run_focus(raw, experiment.focus)
     for product in (raw, image):
@@ -152,7 +133,7 @@ def test_image_and_raw_round_trip_through_both_formats(tmp_path):
 
 
 def test_a_failed_stream_leaves_nothing(tmp_path):
-    experiment, _ = _experiment(tmp_path, SHORT, "short")
+    experiment = _short()
     chunk = run_simulation(experiment).isel(sweep=slice(0, 10))
     with pytest.raises(RuntimeError, match="stop"), ZarrStream(tmp_path / "x.zarr") as out:
         out.append(chunk)
