@@ -24,7 +24,7 @@ from mitsar.focus.aperture import aperture_half_width, is_uniform_straight_track
 from mitsar.focus.grid import SlantGrid, equivalent_position
 from mitsar.model.geometry.navigation import resolve_navigation
 from mitsar.model.signal import sweep_count
-from mitsar.raw.product import sweep_geometry, track_variables
+from mitsar.raw.product import require_raw_memory, sweep_geometry, track_variables
 
 __all__ = ["SAME_GRID_ANY_TRACK", "check_target_in_grid", "grid_layout", "target_axes"]
 
@@ -50,6 +50,8 @@ def grid_layout(experiment: Experiment) -> tuple[dict, bool]:
     if sweeps < 1:
         raise ParameterError(experiment.source or "experiment", "trajectory.duration",
                              f">= one sweep ({radar.sweep_duration:g} s)", trajectory.duration)
+    # the same budget as the simulation it stands in for, before any per-sweep array
+    require_raw_memory(experiment.source or "experiment", radar, sweeps)
     recorded = resolve_navigation("grid_layout", trajectory, experiment.navigation)
     geometry = sweep_geometry(radar, recorded or trajectory, experiment.look, sweeps)
     track = xr.Dataset(track_variables(geometry),
