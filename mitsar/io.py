@@ -361,7 +361,8 @@ def load(path: str | os.PathLike, product: str | tuple[str, ...] | None = None) 
                                f"os.PathLike), found {type(path).__name__} {path!r:.80}")
     path = Path(path)
     if not path.exists():
-        raise ProductFileError(f"{path}: no such file")
+        raise ProductFileError(f"load: parameter 'path': expected an existing product file "
+                               f"(netCDF or a .zarr store), found {str(path)!r}: no such file")
     zarr_store = path.is_dir() and any((path / name).exists() for name in ZARR_MARKERS)
     if path.is_dir() and not zarr_store:
         raise ProductFileError(f"{path}: is a folder, expected a mitsar product file (.nc) "

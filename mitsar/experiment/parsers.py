@@ -28,6 +28,7 @@ from mitsar.experiment.options import (
     SimulationOptions,
 )
 from mitsar.experiment.table import Table, prefixed
+from mitsar.focus.aperture import MAX_AZIMUTH_RESOLUTION
 from mitsar.focus.grid import axis_count, require_pixels
 from mitsar.model.geometry.attitude import Look
 from mitsar.model.geometry.navigation import NavigationErrors
@@ -293,17 +294,13 @@ def _physical_optics(t: Table) -> bool | tuple[str, ...]:
     raise t.error("physical_optics", "true, false or an array of shape ids", value)
 
 
-MAX_RESOLUTION = 1000.0
-"""Coarsest processed azimuth resolution accepted [m], far beyond any indoor scene."""
-
-
 def parse_focus(t: Table | None) -> FocusOptions:
     """``[focus]``: algorithm, window, azimuth_resolution, autofocus and ``[focus.grid]``."""
     if t is None:
         return FocusOptions()
     algorithm = t.string("algorithm", "bpa", choices=ALGORITHMS)
     window = t.string("window", "rect", choices=WINDOWS)
-    resolution = t.number("azimuth_resolution", None, unit="m", gt=0, le=MAX_RESOLUTION)
+    resolution = t.number("azimuth_resolution", None, unit="m", gt=0, le=MAX_AZIMUTH_RESOLUTION)
     autofocus = t.string("autofocus", None, choices=AUTOFOCUS_METHODS)
     grid_table = t.table("grid")
     grid = parse_grid(grid_table) if grid_table is not None else None

@@ -37,6 +37,7 @@ from mitsar.focus.windows import evaluate_window
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
 
 __all__ = [
+    "MAX_AZIMUTH_RESOLUTION",
     "aperture_half_width",
     "aperture_resolution",
     "aspect_frames",
@@ -48,6 +49,11 @@ __all__ = [
     "normalise_image",
     "sweep_window",
 ]
+
+
+MAX_AZIMUTH_RESOLUTION = 1000.0
+"""Coarsest processed azimuth resolution accepted [m] (focus and the TOML ``[focus]`` table),
+far beyond any indoor scene: its band would hold no sweep."""
 
 
 def doppler_geometry(pixels: NDArray, positions: NDArray, velocities: NDArray

@@ -11,7 +11,7 @@ import xarray as xr
 
 from mitsar import checks
 from mitsar.errors import ParameterError
-from mitsar.focus.aperture import aperture_half_width
+from mitsar.focus.aperture import MAX_AZIMUTH_RESOLUTION, aperture_half_width
 from mitsar.focus.autofocus import PulseSettings, make_options, run_autofocus
 from mitsar.focus.bpa import focus_bpa
 from mitsar.focus.ffbp import focus_ffbp
@@ -109,6 +109,10 @@ def focus(raw: xr.Dataset, algorithm: str = "bpa", grid: Grid | dict | None = No
     if azimuth_resolution is not None:
         azimuth_resolution = checks.positive("focus", "azimuth_resolution", azimuth_resolution,
                                              "None or a finite resolution > 0 m")
+        if azimuth_resolution > MAX_AZIMUTH_RESOLUTION:
+            raise ParameterError("focus", "azimuth_resolution",
+                                 f"at most {MAX_AZIMUTH_RESOLUTION:g} m (a processed band that "
+                                 "narrow holds no sweep of an indoor pass)", azimuth_resolution)
     if backend not in ("drjit", "numpy"):
         raise ParameterError("focus", "backend", "'drjit' or 'numpy'", backend)
     if autofocus is not None:
