@@ -17,7 +17,8 @@ demo: setup
 	$(VENV)/bin/mitsar demo -o demo-output --overwrite
 
 # Every bundled example: ray-traced scenes, the paper's 2D/3D multipath cases, ambiguity maps,
-# a short Monte Carlo, the ablation figures and real flight (navigation errors, autofocus)
+# a short Monte Carlo, a walking person (moving shapes), a small sweep on Dask, the ablation
+# figures and real flight (navigation errors, autofocus)
 # (a few minutes; outputs in demo-output/examples).
 examples: setup
 	mkdir -p demo-output/examples
@@ -32,6 +33,9 @@ examples: setup
 	  $(VENV)/bin/mitsar plot demo-output/examples/$$case/raw.nc -o demo-output/examples/$$case/range_compressed.png --overwrite && \
 	  $(VENV)/bin/mitsar plot demo-output/examples/$$case/image.nc -o demo-output/examples/$$case/image.png --overwrite || exit 1; done
 	$(VENV)/bin/mitsar ambiguity examples/ambiguity_control_volume.toml -o demo-output/examples/ambiguity --overwrite
+	$(VENV)/bin/mitsar run examples/walking_person.toml -o demo-output/examples/walking_person --overwrite
+	$(VENV)/bin/mitsar sweep examples/campaign_tiny.toml --vary look.off_nadir_deg=54:57:1.5 \
+	  --vary trajectory.speed=0.5,1.0 -n 2 -o demo-output/examples/sweep
 	$(VENV)/bin/mitsar montecarlo examples/paper_point_target.toml -n 5 -o demo-output/examples/montecarlo --restart
 	$(PY) examples/ablations.py -o demo-output/examples/ablations --overwrite
 	$(PY) examples/real_flight.py -o demo-output/examples/real_flight --overwrite
