@@ -49,6 +49,8 @@ __all__ = [
     "derotate",
     "interpolate",
     "jit_array",
+    "kernel_tables",
+    "pixel_pulse",
     "profile_position",
     "pulse_sum",
 ]
@@ -219,31 +221,14 @@ def backproject_drjit(profile: NDArray, frequency: NDArray, radar: Radar, pixels
     require_llvm()
     if len(pixels) == 0:
         return np.zeros(0, dtype=complex), np.zeros(0)
-    sweeps, bins = profile.shape
-    sweep_range, speed, direction, coefficients = _kernel_inputs(pixels, sweeps, velocities,
-                                                                 window, sweep_range)
+    sweeps = profile.shape[0]
+    sweep_range = _kernel_inputs(pixels, sweeps, velocities, window, sweep_range)[0]
     first, end = (np.asarray(r, dtype=np.int64) for r in sweep_range)
     groups = _lane_groups(first, LANE_PIXELS)
     lanes = len(groups)
-    step = frequency[1] - frequency[0]
-    two_over_c = 2.0 / SPEED_OF_LIGHT
-    constants = {
-        # index = (K 2R/c - f_0) / df + f_c dtau/dt / df (beat_frequency, profile_position)
-        "range_scale": dr.opaque(Float64, radar.chirp_rate * two_over_c / step),
-        "index_offset": dr.opaque(Float64, -frequency[0] / step),
-        "doppler_scale": dr.opaque(Float32, -radar.carrier_frequency * two_over_c / step
-                                   if motion_correction else 0.0),
-        "carrier_scale": dr.opaque(Float64, radar.carrier_frequency * two_over_c),
-        "bins": dr.opaque(UInt32, bins),
-        "half_width": dr.opaque(Float32, half_width),
-        "coefficients": [float(c) for c in coefficients]}
-    sweep_arrays = ([jit_array(Float64, positions[:, i], np.float64) for i in range(3)]
-                    + [jit_array(Float32, a, np.float32) for a in (
-                        direction[:, 0], direction[:, 1], direction[:, 2], speed,
-                        centroid_sine)])
-    # Profiles are read at random: (real, imag) float32 pairs, one 64-bit word per bin.
-    pairs = jit_array(UInt64, np.ascontiguousarray(profile, dtype=np.complex64)
-                      .view(np.uint64).ravel(), np.uint64)
+    constants, sweep_arrays, pairs = kernel_tables(profile, frequency, radar, positions,
+                                                   velocities, centroid_sine, half_width,
+                                                   window, motion_correction)
     index = groups.ravel()
     count = len(pixels)
     natural = bool(np.array_equal(index[:count], np.arange(count)))
@@ -286,6 +271,42 @@ def backproject_drjit(profile: NDArray, frequency: NDArray, radar: Radar, pixels
     return weighted_sum, total
 
 
+def kernel_tables(profile: NDArray, frequency: NDArray, radar: Radar, positions: NDArray,
+                  velocities: NDArray, centroid_sine: NDArray, half_width: float,
+                  window: NDArray, motion_correction: bool = True) -> tuple[dict, list, Any]:
+    """Constants, per-sweep geometry and packed profiles that :func:`pixel_pulse` reads.
+
+    Parameters as :func:`backproject_numpy`. Returns the kernel constants (opaque scalars:
+    profile position of ``K tau`` and of the Doppler term, carrier turns per metre, bins,
+    half width, window coefficients), the sweep arrays (position float64; unit direction,
+    speed and centroid sine float32) and the profiles as one 64-bit (real, imag) float32 word
+    per bin.
+    """
+    sweeps, bins = profile.shape
+    _, speed, direction, coefficients = _kernel_inputs(positions[:0], sweeps, velocities,
+                                                       window, None)
+    step = frequency[1] - frequency[0]
+    two_over_c = 2.0 / SPEED_OF_LIGHT
+    constants = {
+        # index = (K 2R/c - f_0) / df + f_c dtau/dt / df (beat_frequency, profile_position)
+        "range_scale": dr.opaque(Float64, radar.chirp_rate * two_over_c / step),
+        "index_offset": dr.opaque(Float64, -frequency[0] / step),
+        "doppler_scale": dr.opaque(Float32, -radar.carrier_frequency * two_over_c / step
+                                   if motion_correction else 0.0),
+        "carrier_scale": dr.opaque(Float64, radar.carrier_frequency * two_over_c),
+        "bins": dr.opaque(UInt32, bins),
+        "half_width": dr.opaque(Float32, half_width),
+        "coefficients": [float(c) for c in coefficients]}
+    sweep_arrays = ([jit_array(Float64, positions[:, i], np.float64) for i in range(3)]
+                    + [jit_array(Float32, a, np.float32) for a in (
+                        direction[:, 0], direction[:, 1], direction[:, 2], speed,
+                        centroid_sine)])
+    # Profiles are read at random: (real, imag) float32 pairs, one 64-bit word per bin.
+    pairs = jit_array(UInt64, np.ascontiguousarray(profile, dtype=np.complex64)
+                      .view(np.uint64).ravel(), np.uint64)
+    return constants, sweep_arrays, pairs
+
+
 LANE_PIXELS = 4
 """Pixels per lane of the float64 kernel: the per-sweep geometry is gathered once for all."""
 
@@ -320,7 +341,7 @@ def _cos32(angle: Float32) -> Float32:
     return dr.cos(angle)
 
 
-def _pixel_pulse(k: UInt32, pixel: tuple, sweep: tuple, pairs: UInt64, constants: dict
+def pixel_pulse(k: UInt32, pixel: tuple, sweep: tuple, pairs: UInt64, constants: dict
                  ) -> tuple[Float32, Float32, Float32]:
     """Weighted, de-rotated profile value of one pixel for sweep k (steps 1-4 of the module).
 
@@ -378,7 +399,7 @@ def _bpa_loop(lane_pixels: list, first: UInt32, end: UInt32, sweep_arrays: list,
                       + [dr.gather(Float32, a, k) for a in sweep_arrays[3:]])
         out = []
         for g, pixel in enumerate(lane_pixels):
-            parts = _pixel_pulse(k, pixel, sweep, pairs, constants)
+            parts = pixel_pulse(k, pixel, sweep, pairs, constants)
             out += [accumulators[3 * g + i] + parts[i] for i in range(3)]
         return (k + 1, *out)
 

@@ -81,12 +81,13 @@ class Prepared:
     kernel_half_width: float
     kernel_window: NDArray[np.float64]
     frequency: NDArray[np.float64]
-    profile: NDArray[np.complex128]
+    profile: NDArray[np.complexfloating]
 
 
 def prepare(raw: xr.Dataset, *, half_width: float, window: str, range_window: str,
             remove_rvp: bool, range_upsample: int, band_selection: str | None = None,
-            points: NDArray | None = None, range_margin: float = 0.0) -> Prepared:
+            points: NDArray | None = None, range_margin: float = 0.0,
+            profile_dtype: type = np.complex128) -> Prepared:
     """Band selection and range compression of a raw product for a BP sum (module docstring).
 
     Parameters
@@ -109,6 +110,9 @@ def prepare(raw: xr.Dataset, *, half_width: float, window: str, range_window: st
         :func:`mitsar.focus.compression.range_spectrum`).
     range_margin : float
         Extra range [m] kept beyond the points' band (FFBP's polar grids reach past them).
+    profile_dtype : numpy complex type
+        Precision of the range compression (``dtype`` of
+        :func:`mitsar.focus.compression.range_spectrum`).
 
     Raises
     ------
@@ -144,7 +148,8 @@ def prepare(raw: xr.Dataset, *, half_width: float, window: str, range_window: st
         samples, radar, window=range_window, remove_rvp=remove_rvp, upsample=range_upsample,
         rvp_present=bool(raw.attrs.get("rvp", 1)),
         band=None if points is None else beat_band(radar, points, positions,
-                                                   float(speed.max()), range_margin))
+                                                   float(speed.max()), range_margin),
+        dtype=profile_dtype)
     return Prepared(radar=radar, band_selection=band_selection, straight=straight,
                     positions=positions, velocities=velocities, speed=speed, centroid=centroid,
                     mean_speed=mean_speed, mean_centroid=mean_centroid,

@@ -1,0 +1,376 @@
+"""The stages of fast factorised back-projection as Dr.Jit kernels (:mod:`mitsar.focus.ffbp`).
+
+A stage is a set of sub-apertures, each with a local polar grid in the image plane
+(:class:`Stage`); its images stay in Dr.Jit memory from stage to stage (one 64-bit word per
+node, a (real, imag) float32 pair, and a float32 sum of sweep weights), and its nodes are never
+held as arrays: every kernel lane finds its node's position from its index and the
+sub-aperture's frame (:func:`polar_node`, float64). Kernels:
+
+- :func:`first_stage`: exact back-projection of each sub-aperture's sweeps onto its nodes with
+  the BPA per-pulse sum (:func:`mitsar.focus.backprojection.pixel_pulse`), four nodes per lane
+  sharing a sweep's geometry, then demodulation by ``exp(+j 2 pi f_c 2 rho / c)``;
+- :func:`merge_nodes` and :func:`merge_points`: the children's images interpolated (Keys cubic,
+  4 x 4 taps) at a parent's nodes or at the output pixels, re-phased by
+  ``2 pi (2 f_c / c)(rho_P - rho_j)`` (module docstring of :mod:`mitsar.focus.ffbp`, step 4).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import drjit as dr
+import numpy as np
+from drjit.llvm import Float32, Float64, UInt32, UInt64
+from numpy.typing import NDArray
+
+from mitsar.focus.backprojection import (
+    carrier_turns,
+    derotate,
+    interpolate,
+    jit_array,
+    pixel_pulse,
+)
+from mitsar.model.ops import NUMPY_OPS, ArrayOps
+
+__all__ = ["LANE_NODES", "Stage", "first_stage", "merge_nodes", "merge_points", "node_frames",
+           "polar_node"]
+
+LANE_NODES = 4
+"""First-stage nodes per kernel lane (consecutive in angle; one sweep gather for all)."""
+
+# Dr.Jit's side of the ops namespace for the node formula (only sqrt, maximum, minimum, where
+# are used; mitsar.plugins.ops would load Mitsuba).
+_JIT_OPS = NUMPY_OPS._replace(sqrt=dr.sqrt, maximum=dr.maximum, minimum=dr.minimum,
+                              floor=dr.floor, where=dr.select)
+
+_FRAME_FIELDS = ("cx", "cy", "cz", "ax", "ay", "az", "ux", "uy", "uz", "wx", "wy", "wz",
+                 "height", "projection", "axis_normal", "side", "axis_side", "side_u",
+                 "side_w")
+
+
+@dataclass
+class Stage:
+    """Sub-apertures of one stage and their polar images (arrays over sub-apertures j)."""
+
+    first: NDArray           # (J,) first sweep
+    end: NDArray             # (J,) end sweep
+    centre: NDArray          # (J, 3) [m], relative to the local origin
+    axis: NDArray            # (J, 3) unit
+    rho0: NDArray            # (J,) first range node [m]
+    alpha0: NDArray          # (J,) first direction-cosine node
+    rho_step: float
+    alpha_step: float
+    shape: tuple[int, int]   # (N_rho, N_alpha)
+    values: Any = None       # UInt64 (J N_rho N_alpha,): demodulated images, (re, im) float32
+    totals: Any = None       # Float32 (J N_rho N_alpha,): sums of the sweeps' weights
+
+
+# --------------------------------------------------------------------------------------------
+# Node positions
+# --------------------------------------------------------------------------------------------
+def node_frames(stage: Stage, normal: NDArray, plane_point: NDArray) -> dict[str, NDArray]:
+    """Per-sub-aperture constants of :func:`polar_node` (arrays of shape (J,)).
+
+    With ``b1``, ``b2`` completing the axis ``a`` to an orthonormal frame, ``u`` is the unit
+    projection of the plane normal n on the plane normal to a (``u = (b1.n b1 + b2.n b2) /
+    projection``), ``w = a x u``; ``height = (c - p0).n``; ``side`` the sign of ``(x - c).(n
+    x a)`` that the plane's centre p0 has (the pixels' side); ``axis_side``, ``side_u``,
+    ``side_w`` the components of ``n x a`` on a, u and w.
+    """
+    axis = stage.axis
+    helper = np.where(np.abs(axis[:, :1]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]])
+    b1 = np.cross(axis, helper)
+    b1 /= np.linalg.norm(b1, axis=-1, keepdims=True)
+    b2 = np.cross(axis, b1)
+    b1n, b2n = b1 @ normal, b2 @ normal
+    projection = np.hypot(b1n, b2n)
+    beta = np.arctan2(b2n, b1n)
+    u = np.cos(beta)[:, None] * b1 + np.sin(beta)[:, None] * b2
+    w = np.cos(beta)[:, None] * b2 - np.sin(beta)[:, None] * b1
+    side_vector = np.cross(normal[None, :], axis)
+    side = np.sign(np.einsum("ji,ji->j", plane_point - stage.centre, side_vector))
+    columns = [*stage.centre.T, *axis.T, *u.T, *w.T]
+    columns += [(stage.centre - plane_point) @ normal, projection, axis @ normal,
+                np.where(side == 0, 1.0, side)]
+    columns += [np.einsum("ji,ji->j", v, side_vector) for v in (axis, u, w)]
+    return dict(zip(_FRAME_FIELDS, columns, strict=True))
+
+
+def polar_node(rho: Any, alpha: Any, frame: dict, ops: ArrayOps = NUMPY_OPS
+               ) -> tuple[Any, Any, Any]:
+    """Position [m] of polar node (rho, alpha) of a sub-aperture, in the image plane.
+
+    The node is where the sphere ``|x - c| = rho``, the cone ``a.(x - c) = rho alpha`` and the
+    image plane meet, on the pixels' side (docs/focusing.md § FFBP): ``x = c + rho alpha a +
+    rho s (cos(gamma) u +- sin(gamma) w)``, ``s = sqrt(1 - alpha^2)``, where the plane equation
+    gives ``cos(gamma) = -(height + rho alpha a.n) / (rho s projection)`` (clipped to [-1, 1]:
+    a node the plane does not reach goes to the nearest point of its circle) and the sign of
+    ``sin(gamma)`` is the one that puts ``(x - c).(n x a)`` on the side of the pixels.
+    ``frame`` holds the sub-aperture's constants (:func:`node_frames`) gathered for the node;
+    NumPy or Dr.Jit arrays alike (``ops``).
+    """
+    f = frame
+    sine = ops.sqrt(ops.maximum(1.0 - alpha * alpha, 0.0))
+    radial = rho * sine
+    cos_gamma = ops.minimum(ops.maximum(
+        -(f["height"] + rho * alpha * f["axis_normal"])
+        / ops.maximum(radial * f["projection"], 1e-12), -1.0), 1.0)
+    sin_gamma = ops.sqrt(ops.maximum(1.0 - cos_gamma * cos_gamma, 0.0))
+    lateral = alpha * f["axis_side"] + sine * (cos_gamma * f["side_u"] + sin_gamma * f["side_w"])
+    sin_gamma = ops.where(lateral * f["side"] > 0.0, sin_gamma, -sin_gamma)
+    along, across_u, across_w = rho * alpha, radial * cos_gamma, radial * sin_gamma
+    return tuple(f[f"c{i}"] + along * f[f"a{i}"] + across_u * f[f"u{i}"] + across_w * f[f"w{i}"]
+                 for i in "xyz")
+
+
+def _jit_frame(stage: Stage, frame: dict[str, NDArray]) -> dict[str, Float64]:
+    """The frame constants and grid origins as float64 Dr.Jit arrays."""
+    out = {key: jit_array(Float64, value, np.float64) for key, value in frame.items()}
+    out["rho0"] = jit_array(Float64, stage.rho0, np.float64)
+    out["alpha0"] = jit_array(Float64, stage.alpha0, np.float64)
+    return out
+
+
+def _lane_node(stage: Stage, frame: dict[str, Float64], lane: UInt32, per_lane: int
+               ) -> tuple[UInt32, Float64, list[Float64], list[tuple]]:
+    """Sub-aperture, range, angles and positions of the ``per_lane`` nodes of every lane.
+
+    Lanes run over (j, i_rho, i_alpha / per_lane); ``N_alpha`` is a multiple of ``per_lane``.
+    """
+    n_rho, n_alpha = stage.shape
+    groups = n_alpha // per_lane
+    per_j = n_rho * groups
+    j = lane // per_j
+    rest = lane - j * per_j
+    i_rho = rest // groups
+    i_alpha = (rest - i_rho * groups) * per_lane
+    gathered = {key: dr.gather(Float64, value, j) for key, value in frame.items()}
+    rho = gathered["rho0"] + Float64(i_rho) * dr.opaque(Float64, stage.rho_step)
+    alphas, nodes = [], []
+    for g in range(per_lane):
+        alpha = dr.clip(gathered["alpha0"] + Float64(i_alpha + g)
+                        * dr.opaque(Float64, stage.alpha_step), -1.0, 1.0)
+        alphas.append(alpha)
+        nodes.append(polar_node(rho, alpha, gathered, _JIT_OPS))
+    return j, rho, alphas, nodes
+
+
+def _pack(real: Float32, imag: Float32) -> UInt64:
+    """(real, imag) float32 as one 64-bit word (real in the low half, as NumPy complex64)."""
+    return (UInt64(dr.reinterpret_array(UInt32, real))
+            | (UInt64(dr.reinterpret_array(UInt32, imag)) << 32))
+
+
+# --------------------------------------------------------------------------------------------
+# First stage
+# --------------------------------------------------------------------------------------------
+def first_stage(stage: Stage, frame: dict[str, NDArray], tables: tuple, wavenumber: float
+                ) -> None:
+    """Exact back-projection of every sub-aperture onto its nodes (sets ``stage.values``).
+
+    Parameters
+    ----------
+    stage : Stage
+        First stage; ``N_alpha`` a multiple of :data:`LANE_NODES`.
+    frame : dict
+        :func:`node_frames` of the stage.
+    tables : tuple
+        ``(constants, sweep_arrays, pairs)`` of
+        :func:`mitsar.focus.backprojection.kernel_tables`, with sweep positions in the same
+        local frame as the stage.
+    wavenumber : float
+        Two-way carrier wavenumber ``2 f_c / c`` [cycles/m].
+
+    Each node's sum over its sub-aperture's sweeps is the BPA sum
+    (:func:`mitsar.focus.backprojection.pixel_pulse`), demodulated by
+    ``exp(+j 2 pi wavenumber rho)`` (rho: the node's range, float64, wrapped to one turn).
+    """
+    constants, sweep_arrays, pairs = tables
+    n_rho, n_alpha = stage.shape
+    lanes = len(stage.first) * n_rho * n_alpha // LANE_NODES
+    lane = dr.arange(UInt32, lanes)
+    jit = _jit_frame(stage, frame)
+    j, rho, _, nodes = _lane_node(stage, jit, lane, LANE_NODES)
+    first = dr.gather(UInt32, jit_array(UInt32, stage.first, np.uint32), j)
+    end = dr.gather(UInt32, jit_array(UInt32, stage.end, np.uint32), j)
+    pixels = [(*node, first, end) for node in nodes]
+
+    def condition(k: UInt32, *_: Float32) -> Any:
+        return k < end
+
+    def body(k: UInt32, *accumulators: Float32) -> tuple:
+        sweep = tuple([dr.gather(Float64, a, k) for a in sweep_arrays[:3]]
+                      + [dr.gather(Float32, a, k) for a in sweep_arrays[3:]])
+        out = []
+        for g, pixel in enumerate(pixels):
+            parts = pixel_pulse(k, pixel, sweep, pairs, constants)
+            out += [accumulators[3 * g + i] + parts[i] for i in range(3)]
+        return (k + 1, *out)
+
+    state = (UInt32(first), *[dr.zeros(Float32, lanes) for _ in range(3 * LANE_NODES)])
+    sums = dr.while_loop(state, condition, body)[1:]
+    turns = carrier_turns(rho, dr.opaque(Float64, wavenumber), dr.floor)
+    sin_phase, cos_phase = dr.sincos(Float32(2 * np.pi) * Float32(turns))
+    values = dr.zeros(UInt64, lanes * LANE_NODES)
+    totals = dr.zeros(Float32, lanes * LANE_NODES)
+    for g in range(LANE_NODES):
+        real, imag = derotate(sums[3 * g], sums[3 * g + 1], -sin_phase, cos_phase)
+        index = lane * LANE_NODES + g
+        dr.scatter(values, _pack(real, imag), index)
+        dr.scatter(totals, sums[3 * g + 2], index)
+    dr.eval(values, totals)
+    stage.values, stage.totals = values, totals
+
+
+# --------------------------------------------------------------------------------------------
+# Merges
+# --------------------------------------------------------------------------------------------
+def merge_nodes(stage: Stage, parent: Stage, frame: dict[str, NDArray], children: tuple,
+                wavenumber: float, with_totals: bool) -> None:
+    """Merge ``stage`` onto the nodes of ``parent`` (sets ``parent.values``/``totals``).
+
+    ``children``: first and end child index of every parent sub-aperture; ``frame``:
+    :func:`node_frames` of the parent. One lane per parent node, its position from
+    :func:`polar_node` (float64, then float32 for the interpolation).
+    """
+    n_rho, n_alpha = parent.shape
+    lanes = len(parent.first) * n_rho * n_alpha
+    jit = _jit_frame(parent, frame)
+    j, _, _, nodes = _lane_node(parent, jit, dr.arange(UInt32, lanes), 1)
+    point = [Float32(v) for v in nodes[0]]
+    reference = [Float32(dr.gather(Float64, jit[key], j)) for key in ("cx", "cy", "cz")]
+    first = dr.gather(UInt32, jit_array(UInt32, children[0], np.uint32), j)
+    end = dr.gather(UInt32, jit_array(UInt32, children[1], np.uint32), j)
+    real, imag, total = _merge_loop(point + reference, first, end, _child_data(stage),
+                                    stage.values, stage.totals, _scalars(stage, wavenumber),
+                                    with_totals)
+    parent.values = _pack(real, imag)
+    parent.totals = total if with_totals else dr.zeros(Float32, 1)
+    dr.eval(parent.values, parent.totals)
+
+
+def merge_points(stage: Stage, points: NDArray, first_child: NDArray, end_child: NDArray,
+                 wavenumber: float, with_totals: bool) -> tuple[NDArray, NDArray]:
+    """Sum of the children's images at ``points`` (P, 3) [m, local frame], re-modulated.
+
+    Returns ``sum_j V_j(rho_j, alpha_j) exp(-j 2 pi wavenumber rho_j)`` (the carrier of each
+    child's range, applied as the rotation from the local origin's range ``|y|`` followed by
+    ``exp(-j 2 pi wavenumber |y|)`` in float64) and ``sum_j T_j``.
+    """
+    coordinates = [jit_array(Float64, points[:, i], np.float64) for i in range(3)]
+    point = [Float32(v) for v in coordinates]
+    zero = dr.zeros(Float32, len(points))
+    real, imag, total = _merge_loop(
+        point + [zero, zero, zero], jit_array(UInt32, first_child, np.uint32),
+        jit_array(UInt32, end_child, np.uint32), _child_data(stage), stage.values,
+        stage.totals, _scalars(stage, wavenumber), with_totals)
+    distance = dr.sqrt(sum(v * v for v in coordinates))
+    turns = carrier_turns(distance, dr.opaque(Float64, wavenumber), dr.floor)
+    sin_phase, cos_phase = dr.sincos(Float32(2 * np.pi) * Float32(turns))
+    real, imag = derotate(real, imag, sin_phase, cos_phase)
+    dr.eval(real, imag, total)
+    values = np.asarray(real, dtype=float) + 1j * np.asarray(imag, dtype=float)
+    return values, np.asarray(total, dtype=float)
+
+
+def _child_data(stage: Stage) -> list[Float32]:
+    """Centres, axes and grid origins of the children, float32 columns."""
+    f32 = np.float32
+    return ([jit_array(Float32, stage.centre[:, i], f32) for i in range(3)]
+            + [jit_array(Float32, stage.axis[:, i], f32) for i in range(3)]
+            + [jit_array(Float32, stage.rho0, f32), jit_array(Float32, stage.alpha0, f32)])
+
+
+def _scalars(stage: Stage, wavenumber: float) -> dict:
+    n_rho, n_alpha = stage.shape
+    return {"rho_step": dr.opaque(Float32, stage.rho_step),
+            "alpha_step": dr.opaque(Float32, stage.alpha_step),
+            "n_rho": dr.opaque(UInt32, n_rho), "n_alpha": dr.opaque(UInt32, n_alpha),
+            "wavenumber": dr.opaque(Float32, wavenumber)}
+
+
+def _merge_loop(point_data: list, first: UInt32, end: UInt32, child: list, values: UInt64,
+                totals: Float32, scalars: dict, with_totals: bool) -> tuple:
+    """One lane per point, a symbolic loop over its children (:func:`_merge_lanes`)."""
+    width = dr.width(first)
+
+    def condition(k: UInt32, *_: Float32) -> Any:
+        return k < end
+
+    def body(k: UInt32, acc_real: Float32, acc_imag: Float32, acc_total: Float32) -> tuple:
+        part_real, part_imag, part_total = _merge_lanes(k, point_data, child, values, totals,
+                                                        scalars, with_totals)
+        return k + 1, acc_real + part_real, acc_imag + part_imag, acc_total + part_total
+
+    state = (UInt32(first), *[dr.zeros(Float32, width) for _ in range(3)])
+    return dr.while_loop(state, condition, body)[1:]
+
+
+def _keys(t: Float32) -> tuple[Float32, Float32, Float32, Float32]:
+    """Keys cubic-convolution weights (a = -1/2) of the taps at -1, 0, 1, 2 for offset t."""
+    t2 = t * t
+    t3 = t2 * t
+    return (-0.5 * t3 + t2 - 0.5 * t, 1.5 * t3 - 2.5 * t2 + 1.0,
+            -1.5 * t3 + 2.0 * t2 + 0.5 * t, 0.5 * t3 - 0.5 * t2)
+
+
+def _merge_lanes(k: UInt32, point_data: list, child: list, values: UInt64, totals: Float32,
+                 scalars: dict, with_totals: bool) -> tuple[Float32, Float32, Float32]:
+    """Child k's re-phased image at the lane's point (steps 4-5 of :mod:`mitsar.focus.ffbp`)."""
+    x, y, z, rx, ry, rz = point_data
+    cx_all, cy_all, cz_all, ax_all, ay_all, az_all, rho0_all, alpha0_all = child
+    rho_step, alpha_step = scalars["rho_step"], scalars["alpha_step"]
+    n_rho, n_alpha, wavenumber = scalars["n_rho"], scalars["n_alpha"], scalars["wavenumber"]
+    cx = dr.gather(Float32, cx_all, k)
+    cy = dr.gather(Float32, cy_all, k)
+    cz = dr.gather(Float32, cz_all, k)
+    ox, oy, oz = x - cx, y - cy, z - cz
+    rho = dr.sqrt(ox * ox + oy * oy + oz * oz)
+    alpha = (ox * dr.gather(Float32, ax_all, k) + oy * dr.gather(Float32, ay_all, k)
+             + oz * dr.gather(Float32, az_all, k)) / rho
+    u = (rho - dr.gather(Float32, rho0_all, k)) / rho_step
+    v = (alpha - dr.gather(Float32, alpha0_all, k)) / alpha_step
+    iu = dr.floor(u)
+    iv = dr.floor(v)
+    fu = dr.clip(u - iu, 0.0, 1.0)
+    fv = dr.clip(v - iv, 0.0, 1.0)
+    wu = _keys(fu)
+    wv = _keys(fv)
+    # Outside a child's grid its image is zero (the grid holds the window's support).
+    valid = ((iu >= 1.0) & (iu <= Float32(n_rho - 3)) & (iv >= 1.0)
+             & (iv <= Float32(n_alpha - 3)))
+    iu = dr.clip(iu, 1.0, Float32(n_rho - 3))
+    iv = dr.clip(iv, 1.0, Float32(n_alpha - 3))
+    base = k * n_rho * n_alpha + (UInt32(iu) - 1) * n_alpha + UInt32(iv) - 1
+    child_total = Float32(0.0)
+    if with_totals:
+        # Sweep weights: bilinear (they vary on the scale of the window, not of the phase).
+        inner = base + n_alpha + 1
+        weights_row = interpolate(dr.gather(Float32, totals, inner, valid),
+                                  dr.gather(Float32, totals, inner + 1, valid), fv)
+        weights_next = interpolate(dr.gather(Float32, totals, inner + n_alpha, valid),
+                                   dr.gather(Float32, totals, inner + n_alpha + 1, valid), fv)
+        child_total = interpolate(weights_row, weights_next, fu)
+    v_real = Float32(0.0)
+    v_imag = Float32(0.0)
+    for a in range(4):
+        row_real = Float32(0.0)
+        row_imag = Float32(0.0)
+        for b in range(4):
+            word = dr.gather(UInt64, values, base + a * n_alpha + b, valid)
+            row_real += wv[b] * dr.reinterpret_array(Float32, UInt32(word))
+            row_imag += wv[b] * dr.reinterpret_array(Float32, UInt32(word >> 32))
+        v_real += wu[a] * row_real
+        v_imag += wu[a] * row_imag
+    # rho_ref - rho_j = (c_j - c_ref) . (2 y - c_ref - c_j) / (rho_ref + rho_j): no
+    # cancellation in float32 (docs/focusing.md, kernel speed).
+    gx, gy, gz = cx - rx, cy - ry, cz - rz
+    sx, sy, sz = x - rx, y - ry, z - rz
+    rho_ref = dr.sqrt(sx * sx + sy * sy + sz * sz)
+    difference = (gx * (sx + ox) + gy * (sy + oy) + gz * (sz + oz)) / (rho_ref + rho)
+    turns = carrier_turns(difference, wavenumber, dr.floor)
+    sin_phase, cos_phase = dr.sincos(2 * dr.pi * turns)
+    # exp(+j phase): derotate by -phase.
+    part_real, part_imag = derotate(v_real, v_imag, -sin_phase, cos_phase)
+    return part_real, part_imag, child_total
