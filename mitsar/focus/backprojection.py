@@ -51,6 +51,7 @@ __all__ = [
     "jit_array",
     "kernel_tables",
     "pixel_pulse",
+    "pulse_loop",
     "profile_position",
     "pulse_sum",
 ]
@@ -255,7 +256,7 @@ def backproject_drjit(profile: NDArray, frequency: NDArray, radar: Radar, pixels
     lane_first = jit_array(UInt32, padded_first.min(axis=1, initial=sweeps,
                                                     where=padded_end > padded_first), np.uint32)
     lane_end = jit_array(UInt32, padded_end.max(axis=1), np.uint32)
-    result = _bpa_loop(lane_pixels, lane_first, lane_end, sweep_arrays, pairs, constants,
+    result = pulse_loop(lane_pixels, lane_first, lane_end, sweep_arrays, pairs, constants,
                        lanes)
     dr.eval(*result)
     # (3 G, L) accumulators -> per part, values in the order of groups.ravel().
@@ -386,10 +387,11 @@ def pixel_pulse(k: UInt32, pixel: tuple, sweep: tuple, pairs: UInt64, constants:
     return weight * part_real, weight * part_imag, weight
 
 
-def _bpa_loop(lane_pixels: list, first: UInt32, end: UInt32, sweep_arrays: list,
-                pairs: UInt64, constants: dict, lanes: int) -> list:
-    """A symbolic loop over sweeps, :data:`LANE_PIXELS` pixels per lane: the sweep's geometry
-    is gathered once per lane and sweep; three float32 accumulators per pixel."""
+def pulse_loop(lane_pixels: list, first: UInt32, end: UInt32, sweep_arrays: list,
+               pairs: UInt64, constants: dict, lanes: int) -> list:
+    """A symbolic loop over sweeps, ``len(lane_pixels)`` pixels (or FFBP nodes) per lane: the
+    sweep's geometry is gathered once per lane and sweep; three float32 accumulators (real,
+    imaginary, weight) per pixel, in that order (:func:`pixel_pulse`)."""
 
     def condition(k: UInt32, *_: Float32) -> Any:
         return k < end

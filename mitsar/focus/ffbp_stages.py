@@ -29,7 +29,7 @@ from mitsar.focus.backprojection import (
     derotate,
     interpolate,
     jit_array,
-    pixel_pulse,
+    pulse_loop,
 )
 from mitsar.model.ops import NUMPY_OPS, ArrayOps
 
@@ -195,21 +195,7 @@ def first_stage(stage: Stage, frame: dict[str, NDArray], tables: tuple, wavenumb
     first = dr.gather(UInt32, jit_array(UInt32, stage.first, np.uint32), j)
     end = dr.gather(UInt32, jit_array(UInt32, stage.end, np.uint32), j)
     pixels = [(*node, first, end) for node in nodes]
-
-    def condition(k: UInt32, *_: Float32) -> Any:
-        return k < end
-
-    def body(k: UInt32, *accumulators: Float32) -> tuple:
-        sweep = tuple([dr.gather(Float64, a, k) for a in sweep_arrays[:3]]
-                      + [dr.gather(Float32, a, k) for a in sweep_arrays[3:]])
-        out = []
-        for g, pixel in enumerate(pixels):
-            parts = pixel_pulse(k, pixel, sweep, pairs, constants)
-            out += [accumulators[3 * g + i] + parts[i] for i in range(3)]
-        return (k + 1, *out)
-
-    state = (UInt32(first), *[dr.zeros(Float32, lanes) for _ in range(3 * LANE_NODES)])
-    sums = dr.while_loop(state, condition, body)[1:]
+    sums = pulse_loop(pixels, first, end, sweep_arrays, pairs, constants, lanes)
     turns = carrier_turns(rho, dr.opaque(Float64, wavenumber), dr.floor)
     sin_phase, cos_phase = dr.sincos(Float32(2 * np.pi) * Float32(turns))
     values = dr.zeros(UInt64, lanes * LANE_NODES)
