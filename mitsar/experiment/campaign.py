@@ -251,14 +251,12 @@ def run_tasks(function: Callable[..., Any], tasks: Sequence[Task], store: Record
         bar.update(1)
 
     try:
-        if not todo:
-            pass
-        elif client is None and resolve_scheduler(scheduler) == INLINE:
+        if todo and client is None and resolve_scheduler(scheduler) == INLINE:
             for task in todo:
                 keep(task, _call(function, task.args))
-        elif client is not None:
+        elif todo and client is not None:
             _run_on(client, function, todo, keep)
-        else:
+        elif todo:  # nothing left to do starts no cluster
             with dask_client(scheduler, workers) as own:
                 _run_on(own, function, todo, keep)
     finally:
