@@ -198,6 +198,8 @@ def first_stage(stage: Stage, frame: dict[str, NDArray], tables: tuple, wavenumb
     sums = pulse_loop(pixels, first, end, sweep_arrays, pairs, constants, lanes)
     turns = carrier_turns(rho, dr.opaque(Float64, wavenumber), dr.floor)
     sin_phase, cos_phase = dr.sincos(Float32(2 * np.pi) * Float32(turns))
+    # One kernel for the loop: the scatters below would otherwise each re-run it.
+    dr.eval(*sums, sin_phase, cos_phase)
     values = dr.zeros(UInt64, lanes * LANE_NODES)
     totals = dr.zeros(Float32, lanes * LANE_NODES)
     for g in range(LANE_NODES):
