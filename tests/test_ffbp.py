@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import mitsar
+from mitsar.focus import ffbp as ffbp_module
 from mitsar.focus.ffbp import FFBP_DEFAULTS
 from mitsar.focus.ffbp_stages import Stage, node_frames, polar_node
 from mitsar.focus.grid import PlaneGrid, PointsGrid, SlantGrid
@@ -164,3 +165,32 @@ def test_polar_nodes_lie_on_their_sphere_cone_and_the_image_plane():
     side = np.einsum("jpi,ji->jp", offset, np.cross(normal, axis))
     expected = np.sign(np.einsum("ji,ji->j", plane_point - centre, np.cross(normal, axis)))
     assert np.all(np.sign(side) == expected[:, None])
+
+
+def test_merging_stops_where_the_polar_grids_cannot_hold_the_range_curvature(monkeypatch):
+    """A point 2.8 m from a 2 m track: sub-apertures longer than the bound of
+    ``_longest_subaperture`` (0.59 m here) add more range bandwidth than the polar grids
+    sample. Asked to merge down to one sub-aperture, FFBP stops at the bound and stays as
+    close to exact BPA as its default plan (1 dB: the same grids up to the last stage; measured
+    -45.1 dB both); with the bound lifted it merges on and loses at least 6 dB (measured
+    -23.9 dB)."""
+    target = np.array([15.0, 3.4, 2.5])
+    trajectory = mitsar.Trajectory.linear([14.0, 1.4, 4.5], [0.5, 0, 0], 4.0)
+    raw = mitsar.simulate_point_targets(RADAR, trajectory, mitsar.Look(45.0),
+                                        [mitsar.PointTarget(target)], normalized=True)
+    axis = [-0.3, 0.3, 0.01]
+    grid = PlaneGrid(origin=target, axis_u=[1, 0, 0], axis_v=[0, 1, 0], u=axis, v=axis)
+    settings = {"grid": grid, "window": "hamming"}
+    reference = mitsar.focus(raw, **settings)["image"].values
+
+    def error(options):
+        image = mitsar.focus(raw, algorithm="ffbp", algorithm_options=options, **settings)
+        return error_db(image["image"].values, reference), image.attrs["ffbp_stages"]
+
+    default, _ = error({})
+    bounded, bounded_stages = error({"final_subapertures": 1})
+    monkeypatch.setattr(ffbp_module, "_CURVATURE_SHARE", 1e6)
+    unbounded, unbounded_stages = error({"final_subapertures": 1})
+    assert bounded_stages < unbounded_stages
+    assert bounded < default + 1.0
+    assert unbounded > bounded + 6.0

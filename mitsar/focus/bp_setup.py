@@ -36,7 +36,7 @@ from mitsar.model.radar import Radar
 from mitsar.model.signal import fast_time
 from mitsar.raw.product import radar_of
 
-__all__ = ["Prepared", "beat_band", "normalise", "prepare"]
+__all__ = ["Prepared", "aperture_weights", "beat_band", "normalise", "prepare"]
 
 
 def beat_band(radar: Radar, points: NDArray, positions: NDArray, max_speed: float,
@@ -158,16 +158,31 @@ def prepare(raw: xr.Dataset, *, half_width: float, window: str, range_window: st
                     frequency=frequency, profile=profile)
 
 
-def normalise(prepared: Prepared, raw: xr.Dataset, pixels: NDArray, sums: NDArray,
-              totals: NDArray, half_width: float) -> tuple[NDArray, NDArray]:
-    """Image values and aperture coverage from the BP sums and weight totals (module doc)."""
+def aperture_weights(prepared: Prepared, raw: xr.Dataset, pixels: NDArray, half_width: float
+                     ) -> tuple[NDArray, NDArray | None]:
+    """Full-aperture weight of every pixel and, after a Doppler band-pass, its coverage.
+
+    The part of :func:`normalise` that needs no BP sum (a focuser may compute it while its
+    kernels run).
+    """
     origin, direction, _ = track_frame(raw)
     p = prepared
     signal_weight = full_aperture_weight(pixels, origin, direction, p.mean_speed, p.radar.prf,
                                          p.mean_centroid, half_width, float(p.coefficients[0]))
-    if p.band_selection == "doppler":
-        track_length = float((p.positions[-1] - origin) @ direction)
-        coverage = band_coverage(pixels, origin, direction, track_length, p.mean_centroid,
-                                 half_width)
+    if p.band_selection != "doppler":
+        return signal_weight, None
+    track_length = float((p.positions[-1] - origin) @ direction)
+    return signal_weight, band_coverage(pixels, origin, direction, track_length,
+                                        p.mean_centroid, half_width)
+
+
+def normalise(prepared: Prepared, raw: xr.Dataset, pixels: NDArray, sums: NDArray,
+              totals: NDArray, half_width: float,
+              weights: tuple[NDArray, NDArray | None] | None = None
+              ) -> tuple[NDArray, NDArray]:
+    """Image values and aperture coverage from the BP sums and weight totals (module doc);
+    ``weights`` from :func:`aperture_weights` if already computed."""
+    signal_weight, coverage = weights or aperture_weights(prepared, raw, pixels, half_width)
+    if coverage is not None:
         return sums / np.where(signal_weight > 0, signal_weight, 1.0), coverage
     return normalise_image(sums, totals, signal_weight)

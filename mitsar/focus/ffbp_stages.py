@@ -10,7 +10,8 @@ sub-aperture's frame (:func:`polar_node`, float64). Kernels:
   the BPA per-pulse sum (:func:`mitsar.focus.backprojection.pixel_pulse`), four nodes per lane
   sharing a sweep's geometry, then demodulation by ``exp(+j 2 pi f_c 2 rho / c)``;
 - :func:`merge_nodes` and :func:`merge_points`: the children's images interpolated (Keys cubic,
-  4 x 4 taps) at a parent's nodes or at the output pixels, re-phased by
+  4 x 4 taps, each row of four taps one packet load, :func:`_tap_rows`) at a parent's nodes
+  or at the output pixels, re-phased by
   ``2 pi (2 f_c / c)(rho_P - rho_j)`` (module docstring of :mod:`mitsar.focus.ffbp`, step 4).
 """
 
@@ -21,7 +22,7 @@ from typing import Any
 
 import drjit as dr
 import numpy as np
-from drjit.llvm import Float32, Float64, UInt32, UInt64
+from drjit.llvm import Array4u64, Float32, Float64, UInt32, UInt64
 from numpy.typing import NDArray
 
 from mitsar.focus.backprojection import (
@@ -34,7 +35,7 @@ from mitsar.focus.backprojection import (
 from mitsar.model.ops import NUMPY_OPS, ArrayOps
 
 __all__ = ["LANE_NODES", "Stage", "first_stage", "merge_nodes", "merge_points", "node_frames",
-           "polar_node"]
+           "polar_node", "to_numpy"]
 
 LANE_NODES = 4
 """First-stage nodes per kernel lane (consecutive in angle; one sweep gather for all)."""
@@ -231,35 +232,57 @@ def merge_nodes(stage: Stage, parent: Stage, frame: dict[str, NDArray], children
     first = dr.gather(UInt32, jit_array(UInt32, children[0], np.uint32), j)
     end = dr.gather(UInt32, jit_array(UInt32, children[1], np.uint32), j)
     real, imag, total = _merge_loop(point + reference, first, end, _child_data(stage),
-                                    stage.values, stage.totals, _scalars(stage, wavenumber),
-                                    with_totals)
+                                    _tap_rows(stage.values), stage.totals,
+                                    _scalars(stage, wavenumber), with_totals)
     parent.values = _pack(real, imag)
     parent.totals = total if with_totals else dr.zeros(Float32, 1)
     dr.eval(parent.values, parent.totals)
 
 
 def merge_points(stage: Stage, points: NDArray, first_child: NDArray, end_child: NDArray,
-                 wavenumber: float, with_totals: bool) -> tuple[NDArray, NDArray]:
+                 wavenumber: float, with_totals: bool) -> tuple[Float32, Float32, Float32]:
     """Sum of the children's images at ``points`` (P, 3) [m, local frame], re-modulated.
 
     Returns ``sum_j V_j(rho_j, alpha_j) exp(-j 2 pi wavenumber rho_j)`` (the carrier of each
     child's range, applied as the rotation from the local origin's range ``|y|`` followed by
-    ``exp(-j 2 pi wavenumber |y|)`` in float64) and ``sum_j T_j``.
+    ``exp(-j 2 pi wavenumber |y|)`` in float64) and ``sum_j T_j``, as Dr.Jit arrays (real,
+    imaginary, totals) whose kernel has been launched (:func:`to_numpy` waits for them).
     """
     coordinates = [jit_array(Float64, points[:, i], np.float64) for i in range(3)]
     point = [Float32(v) for v in coordinates]
     zero = dr.zeros(Float32, len(points))
     real, imag, total = _merge_loop(
         point + [zero, zero, zero], jit_array(UInt32, first_child, np.uint32),
-        jit_array(UInt32, end_child, np.uint32), _child_data(stage), stage.values,
+        jit_array(UInt32, end_child, np.uint32), _child_data(stage), _tap_rows(stage.values),
         stage.totals, _scalars(stage, wavenumber), with_totals)
     distance = dr.sqrt(sum(v * v for v in coordinates))
     turns = carrier_turns(distance, dr.opaque(Float64, wavenumber), dr.floor)
     sin_phase, cos_phase = dr.sincos(Float32(2 * np.pi) * Float32(turns))
     real, imag = derotate(real, imag, sin_phase, cos_phase)
-    dr.eval(real, imag, total)
-    values = np.asarray(real, dtype=float) + 1j * np.asarray(imag, dtype=float)
-    return values, np.asarray(total, dtype=float)
+    dr.eval(real, imag, total)  # launched: the caller may work while it runs
+    return real, imag, total
+
+
+def to_numpy(real: Float32, imag: Float32, total: Float32) -> tuple[NDArray, NDArray]:
+    """:func:`merge_points`' results as NumPy (complex values, totals); waits for them."""
+    return np.asarray(real, dtype=float) + 1j * np.asarray(imag, dtype=float), np.asarray(
+        total, dtype=float)
+
+
+def _tap_rows(values: UInt64) -> UInt64:
+    """Every node's value followed by its next three along the row, four words per node.
+
+    Node n's interpolation row (taps n ... n + 3) is then one aligned 32-byte packet at
+    ``4 n``, which Dr.Jit loads at once (``dr.gather(Array4u64, ...)``): 4 packet loads per
+    point and child instead of 16 gathers. Indices past the end repeat the last node (they
+    are only read for invalid points, whose gathers are masked).
+    """
+    count = dr.width(values)
+    index = dr.arange(UInt32, 4 * count)
+    node = dr.minimum((index >> 2) + (index & 3), count - 1)
+    rows = dr.gather(UInt64, values, node)
+    dr.eval(rows)
+    return rows
 
 
 def _child_data(stage: Stage) -> list[Float32]:
@@ -345,10 +368,11 @@ def _merge_lanes(k: UInt32, point_data: list, child: list, values: UInt64, total
     for a in range(4):
         row_real = Float32(0.0)
         row_imag = Float32(0.0)
+        # The row's four taps in one packet load (values: rows of four, _tap_rows).
+        words = dr.gather(Array4u64, values, base + a * n_alpha, valid)
         for b in range(4):
-            word = dr.gather(UInt64, values, base + a * n_alpha + b, valid)
-            row_real += wv[b] * dr.reinterpret_array(Float32, UInt32(word))
-            row_imag += wv[b] * dr.reinterpret_array(Float32, UInt32(word >> 32))
+            row_real += wv[b] * dr.reinterpret_array(Float32, UInt32(words[b]))
+            row_imag += wv[b] * dr.reinterpret_array(Float32, UInt32(words[b] >> 32))
         v_real += wu[a] * row_real
         v_imag += wu[a] * row_imag
     # rho_ref - rho_j = (c_j - c_ref) . (2 y - c_ref - c_j) / (rho_ref + rho_j): no
