@@ -99,11 +99,20 @@ FFBP_DEFAULTS: dict[str, float | str] = {
 """Default FFBP options (see the module docstring)."""
 
 _MARGIN = 3
-"""Polar-grid nodes added beyond the pixels on every side, per remaining stage (cubic taps).
+"""Polar-grid range nodes added beyond the pixels on every side, per remaining stage.
 
-A tighter angular margin (the next stage's margin plus three of the stage's own steps) cut
-the first stage's nodes by a quarter but cost 1-2 dB at full size: the image's hard edges at
-the beam's ends make the error depend on where the nodes fall (docs/focusing.md § FFBP)."""
+The range step is the same at every stage, so each stage needs its parent's margin plus the
+cubic taps (one before, two after) and a node for the parallax between the centres."""
+
+_ANGLE_MARGIN = 4
+"""Polar-grid angle nodes added beyond the pixels on every side, at every stage.
+
+A parent's angular step is ``factor`` times finer than its children's (the first stage's
+twice finer again is ``first_angle_oversample``): a parent's margin of 4 of its own steps
+lies within 2 of a child's, which with the cubic taps (2) gives 4 again. Measured against
+the old margin (3 per remaining stage: 12 at the first stage of 4096 sweeps, a third fewer
+first-stage nodes now): the error of all five checked cases the same to 0.01 dB (straight
+0.1 m, 20 degree turn, whole beam rect and Hamming, 0.1 m at full size)."""
 
 
 def focus_ffbp(raw: xr.Dataset, layout_or_pixels: dict | NDArray, *, half_width: float,
@@ -363,7 +372,8 @@ def _make_stage(bounds: NDArray, positions: NDArray, velocities: NDArray, sample
                 alpha_multiple: int = 1) -> Stage:
     """Centres, axes and polar-grid extents of the sub-apertures between ``bounds``.
 
-    ``margin``: nodes added beyond the pixels on every side (:data:`_MARGIN`). ``N_alpha`` is
+    ``margin``: range nodes added beyond the pixels on every side (:data:`_MARGIN`; in angle
+    at most :data:`_ANGLE_MARGIN`). ``N_alpha`` is
     rounded up to a multiple of ``alpha_multiple`` (lanes of the first stage).
     """
     first, end = bounds[:-1], bounds[1:]
@@ -388,9 +398,10 @@ def _make_stage(bounds: NDArray, positions: NDArray, velocities: NDArray, sample
     high = np.minimum(alpha.max(axis=1), support[1] + parallax)
     high = np.maximum(high, low)
     rho0 = rho.min(axis=1) - margin * rho_step
-    alpha0 = np.maximum(low - margin * alpha_step, -1.0)
+    angle_margin = min(margin, _ANGLE_MARGIN)
+    alpha0 = np.maximum(low - angle_margin * alpha_step, -1.0)
     n_rho = int(np.ceil((rho.max(axis=1) - rho.min(axis=1)).max() / rho_step)) + 2 * margin + 1
-    n_alpha = int(np.ceil((high - low).max() / alpha_step)) + 2 * margin + 1
+    n_alpha = int(np.ceil((high - low).max() / alpha_step)) + 2 * angle_margin + 1
     n_alpha = -(-n_alpha // alpha_multiple) * alpha_multiple
     return Stage(first, end, centre, axis, rho0, alpha0, rho_step, alpha_step,
                  (n_rho, n_alpha))
