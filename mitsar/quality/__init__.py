@@ -2,7 +2,8 @@
 
 :func:`measure_impulse_response` (:mod:`~mitsar.quality.impulse`) measures a target in an image
 product; the 1-D metrics of a cut are in :mod:`~mitsar.quality.cuts`, the band-limited
-upsampling they run on in :mod:`~mitsar.quality.upsample`.
+upsampling they run on in :mod:`~mitsar.quality.upsample`, the image's geometry and the peak
+search in :mod:`~mitsar.quality.geometry` and :mod:`~mitsar.quality.peak`.
 """
 
 from mitsar.quality.cuts import ISLR_EXTENTS, first_nulls, irw, islr_db, measure_cut, pslr_db

@@ -4,6 +4,8 @@
 it, upsamples the chip (:mod:`mitsar.quality.upsample`), refines the peak in 2-D, takes cuts
 along the range and azimuth axes through it and measures them (:mod:`mitsar.quality.cuts`, where
 the metric definitions of Cumming & Wong 2005 §2.6 are); plus a 2-D ISLR over the chip.
+The image product's geometry and the target's pixel are read by :mod:`mitsar.quality.geometry`,
+the peak found by :mod:`mitsar.quality.peak`.
 
 Trust (docs/metrics.md): the peak is searched only within ``search_radius_m`` of the target
 (default :data:`SEARCH_CELLS` cells) and must be a local maximum there; the cuts run along the
@@ -17,7 +19,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from typing import Any, NamedTuple
+from typing import Any
 
 import numpy as np
 import xarray as xr
@@ -30,16 +32,23 @@ from mitsar.focus.grid import equivalent_position
 from mitsar.quality.cuts import (
     EXTENT_OPTION,
     ISLR_EXTENTS,
-    MeasurementError,
     measure_cut,
     parse_extent,
 )
+from mitsar.quality.geometry import (
+    DIRECTIONS,
+    dim_offsets,
+    interpolate_position,
+    locate_target,
+    occupied_band,
+    read_geometry,
+    response_cells,
+)
+from mitsar.quality.peak import fine_peak, peak_pixel, refine_peak_2d
 from mitsar.quality.upsample import band_fill_db, check_factor, upsample_chip
 
 __all__ = ["CUT_AXES", "ISLR_EXTENTS", "NEIGHBOUR_DB", "SEARCH_CELLS",
            "measure_impulse_response"]
-
-_DIRECTIONS = ("range", "azimuth")
 
 #: Default chip half-width, resolution cells, and the one used for ``islr_extent="inf"``.
 DEFAULT_CHIP_CELLS = 16.0
@@ -65,163 +74,6 @@ BAND_FILL_WARN_DB = -10.0
 #: Upper bound on the number of samples of an upsampled 2-D chip (128 MiB as complex128); the
 #: upsampling factor is reduced so that larger chips stay within it.
 MAX_UPSAMPLED_SAMPLES = 2**23
-
-
-class _Geometry(NamedTuple):
-    """What :func:`measure_impulse_response` reads from an image product."""
-
-    dims: tuple[str, str]
-    values: NDArray[np.complexfloating]  # complex image, (dim0, dim1)
-    position: NDArray[np.float64]  # world position of every pixel, (dim0, dim1, 3), m
-    spacing: NDArray[np.float64]  # signed pixel spacing of (dim0, dim1), m
-    resolution: dict[str, float]  # one cell in range and azimuth, m
-    axes: dict[str, NDArray[np.float64]]  # unit range/azimuth directions in (dim0, dim1)
-
-
-def _bad_attribute(name: str, expected: str, found: Any) -> ParameterError:
-    return ParameterError("image product", name, expected, found)
-
-
-def _unit_axis(value: Any, name: str) -> NDArray[np.float64]:
-    axis = np.asarray(value, dtype=float).reshape(-1)
-    norm = float(np.hypot(*axis)) if axis.size == 2 else 0.0
-    if axis.size != 2 or not np.isfinite(norm) or norm == 0.0:
-        raise _bad_attribute(name, "a non-zero 2-element vector in the image's (dim0, dim1) "
-                             "metre coordinates", value)
-    return axis / norm
-
-
-def _read_geometry(image: xr.Dataset, cut_axes: str) -> _Geometry:
-    """Validate the image product contract and return its arrays.
-
-    ``cut_axes="response"`` reads ``response_range_axis`` etc. where the grid recorded them
-    (:func:`mitsar.focus.grid.response_frame`), else ``range_axis`` etc.; ``"grid"`` always the
-    latter.
-    """
-    for name in ("image", "position"):
-        if name not in image:
-            raise _bad_attribute(name, "a variable of an image product (mitsar.focus)", None)
-    missing = [
-        key
-        for key in ("range_resolution", "azimuth_resolution", "range_axis", "azimuth_axis")
-        if key not in image.attrs
-    ]
-    if missing:
-        raise _bad_attribute(missing[0], "the attributes range_resolution, azimuth_resolution, "
-                             "range_axis and azimuth_axis of an image product", None)
-    amplitude = image["image"]
-    if amplitude.ndim != 2:
-        raise _bad_attribute("image", "a 2-D image", amplitude.dims)
-    dims = (str(amplitude.dims[0]), str(amplitude.dims[1]))
-    spacing = []
-    for dim in dims:
-        coord = np.asarray(image[dim].values, dtype=float)
-        if coord.size < 3:
-            raise _bad_attribute(dim, "at least 3 samples", coord.size)
-        spacing.append(float(coord[1] - coord[0]))
-    prefix = ""
-    if cut_axes == "response" and all(
-        f"response_{name}_{kind}" in image.attrs
-        for name in _DIRECTIONS for kind in ("axis", "resolution")
-    ):
-        prefix = "response_"
-    axes = {name: _unit_axis(image.attrs[f"{prefix}{name}_axis"], f"{prefix}{name}_axis")
-            for name in _DIRECTIONS}
-    if abs(axes["range"][0] * axes["azimuth"][1] - axes["range"][1] * axes["azimuth"][0]) < 1e-6:
-        raise _bad_attribute(f"{prefix}range_axis", f"a direction not parallel to "
-                             f"{prefix}azimuth_axis", image.attrs[f"{prefix}range_axis"])
-    return _Geometry(
-        dims=dims,
-        values=np.asarray(amplitude.values),
-        position=np.asarray(image["position"].transpose(*dims, "xyz").values, dtype=float),
-        spacing=np.array(spacing),
-        resolution={name: float(image.attrs[f"{prefix}{name}_resolution"])
-                    for name in _DIRECTIONS},
-        axes=axes,
-    )
-
-
-def _locate(geometry: _Geometry, target: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Fractional (dim0, dim1) index of ``target``; ParameterError if it is outside the image.
-
-    Linear in the pixel steps around the nearest pixel (exact on slant and plane grids).
-    """
-    position, shape = geometry.position, np.array(geometry.values.shape)
-    distance2 = np.sum((position - target) ** 2, axis=-1)
-    nearest = np.array(np.unravel_index(int(np.argmin(distance2)), distance2.shape))
-    steps = []
-    for dim in range(2):
-        ahead = nearest.copy()
-        ahead[dim] = nearest[dim] + 1 if nearest[dim] + 1 < shape[dim] else nearest[dim] - 1
-        sign = 1.0 if ahead[dim] > nearest[dim] else -1.0
-        steps.append(sign * (position[tuple(ahead)] - position[tuple(nearest)]))
-    basis = np.column_stack(steps)
-    offset = np.linalg.lstsq(basis, target - position[tuple(nearest)], rcond=None)[0]
-    index = nearest + offset
-    beyond = np.maximum(-0.5 - index, index - (shape - 0.5))
-    if np.any(beyond > 0.0):
-        dim = int(np.argmax(beyond))
-        short = float(beyond[dim] * abs(geometry.spacing[dim]))
-        raise ParameterError(
-            "measure_impulse_response", "target",
-            f"a position inside the image; the target is outside the image by {short:.3f} m "
-            f"along {geometry.dims[dim]!r} (image {shape.tolist()} pixels on {geometry.dims}): "
-            f"extend the focusing grid by at least that much plus the measurement window",
-            [round(float(v), 6) for v in target])
-    return index
-
-
-def _dim_offsets(index_lo: NDArray, n: tuple[int, int], factor: int, origin: NDArray,
-                 spacing: NDArray) -> tuple[NDArray, NDArray]:
-    """Signed metre offsets along (dim0, dim1) of upsampled samples from a fractional index."""
-    d0 = (index_lo[0] + np.arange(n[0]) / factor - origin[0]) * spacing[0]
-    d1 = (index_lo[1] + np.arange(n[1]) / factor - origin[1]) * spacing[1]
-    return d0[:, None], d1[None, :]
-
-
-def _peak_pixel(geometry: _Geometry, target_index: NDArray, search_m: float) -> NDArray:
-    """Brightest pixel within ``search_m`` of the target (disc in the image's metres)."""
-    shape = np.array(geometry.values.shape)
-    half = np.ceil(search_m / np.abs(geometry.spacing)).astype(int) + 1
-    centre = np.rint(target_index).astype(int)
-    lo = np.clip(centre - half, 0, shape - 1)
-    hi = np.clip(centre + half + 1, 1, shape)
-    d0, d1 = _dim_offsets(lo, tuple(hi - lo), 1, target_index, geometry.spacing)
-    inside = d0**2 + d1**2 <= (search_m + 0.5 * np.abs(geometry.spacing).max()) ** 2
-    window = np.where(inside, np.abs(geometry.values[lo[0] : hi[0], lo[1] : hi[1]]), -1.0)
-    pixel = lo + np.array(np.unravel_index(int(np.argmax(window)), window.shape))
-    if np.any(pixel == 0) or np.any(pixel == shape - 1):
-        raise ParameterError(
-            "measure_impulse_response", "target",
-            "a target whose peak is inside the image; the target is too close to the image "
-            f"edge to measure: its peak is on the border pixel {pixel.tolist()} of "
-            f"{shape.tolist()}: extend the focusing grid around the target",
-            [round(float(v), 6) for v in geometry.position[tuple(pixel)]])
-    return pixel
-
-
-def _refine_peak_2d(
-    power: NDArray[np.float64], k: tuple[int, int]
-) -> tuple[NDArray[np.float64], float]:
-    """Fractional peak index and peak power from a quadratic fit of the 3×3 neighbourhood.
-
-    The fit uses the central-difference gradient ``g`` and Hessian ``H``: offset ``−H⁻¹g``,
-    value ``p + g·offset / 2``.
-    """
-    k0, k1 = k
-    origin = np.array(k, dtype=float)
-    if not (0 < k0 < power.shape[0] - 1 and 0 < k1 < power.shape[1] - 1):
-        return origin, float(power[k])
-    w = power[k0 - 1 : k0 + 2, k1 - 1 : k1 + 2]
-    gradient = 0.5 * np.array([w[2, 1] - w[0, 1], w[1, 2] - w[1, 0]])
-    cross = 0.25 * (w[2, 2] - w[2, 0] - w[0, 2] + w[0, 0])
-    hessian = np.array(
-        [[w[2, 1] - 2 * w[1, 1] + w[0, 1], cross], [cross, w[1, 2] - 2 * w[1, 1] + w[1, 0]]]
-    )
-    if np.linalg.det(hessian) <= 0.0 or hessian[0, 0] >= 0.0:
-        return origin, float(power[k])
-    offset = np.clip(-np.linalg.solve(hessian, gradient), -0.5, 0.5)
-    return origin + offset, max(float(w[1, 1] + 0.5 * gradient @ offset), float(w[1, 1]))
 
 
 def _take_cut(
@@ -283,38 +135,15 @@ def _islr_2d_db(
 
     Sidelobes: the rest of the box of ± ``extent`` cells along both axes, or of the whole chip
     (FastSAR ``quality.point_target``; Cumming & Wong 2005 §2.6). ``cells``: offsets of every
-    sample from the peak along the response axes (:func:`_cells`).
+    sample from the peak along the response axes (:func:`response_cells`).
     """
     main = np.ones(power.shape, dtype=bool)
     box = np.ones(power.shape, dtype=bool)
-    for name in _DIRECTIONS:
+    for name in DIRECTIONS:
         main &= (cells[name] >= nulls[name][0]) & (cells[name] <= nulls[name][1])
         box &= np.abs(cells[name]) <= extent
     main_energy = float(np.sum(power[main]))
     return 10.0 * math.log10(float(np.sum(power[box])) / main_energy - 1.0)
-
-
-def _occupied_band(geometry: _Geometry) -> tuple[float, float]:
-    """Occupied fraction of the sampling rate along (dim0, dim1) of the nominal spectrum.
-
-    The impulse response is band-limited to ``|κ_r| ≤ 1/(2ρ_r)``, ``|κ_a| ≤ 1/(2ρ_a)`` in
-    cycles/m along the range and azimuth axes; with ``B = [u_r u_a]`` its wavenumbers are
-    ``k = B⁻ᵀκ``, whose extent along each image dim times the pixel spacing is the fraction.
-    """
-    basis = np.column_stack([geometry.axes["range"], geometry.axes["azimuth"]])
-    half_width = np.array([0.5 / geometry.resolution[name] for name in _DIRECTIONS])
-    extent = np.abs(np.linalg.inv(basis).T) @ half_width  # cycles/m either side, per dim
-    band = 2.0 * extent * np.abs(geometry.spacing)
-    return float(band[0]), float(band[1])
-
-
-def _interpolate_position(position: NDArray[np.float64], index: NDArray) -> NDArray[np.float64]:
-    """World position at a fractional (dim0, dim1) pixel index, bilinear, m."""
-    base = np.clip(np.floor(index).astype(int), 0, np.array(position.shape[:2]) - 2)
-    frac = index - base
-    corners = position[base[0] : base[0] + 2, base[1] : base[1] + 2]
-    weights = np.outer([1.0 - frac[0], frac[0]], [1.0 - frac[1], frac[1]])
-    return np.tensordot(weights, corners, axes=([0, 1], [0, 1]))
 
 
 def _warn_band_fill(chip: NDArray, dims: tuple[str, str]) -> str | None:
@@ -329,26 +158,6 @@ def _warn_band_fill(chip: NDArray, dims: tuple[str, str]) -> str | None:
     )
     warnings.warn(message, RuntimeWarning, stacklevel=3)
     return message
-
-
-def _fine_peak(power: NDArray[np.float64], inside: NDArray[np.bool_], search_m: float,
-               distance: NDArray[np.float64]) -> tuple[int, int]:
-    """Brightest upsampled sample within the search disc; it must be a local maximum.
-
-    Raises :class:`MeasurementError` when the brightest sample inside is on the disc's boundary,
-    rising towards something brighter outside (a stronger neighbour's main lobe).
-    """
-    k = np.unravel_index(int(np.argmax(np.where(inside, power, -1.0))), power.shape)
-    lo = np.maximum(np.array(k) - 1, 0)
-    hi = np.minimum(np.array(k) + 2, power.shape)
-    if power[k] < power[lo[0] : hi[0], lo[1] : hi[1]].max():
-        raise MeasurementError(
-            f"no peak within search_radius_m={search_m:.4g} m of the target: the brightest "
-            f"sample there is on the search boundary, {float(distance[k]):.4f} m away, rising "
-            "towards a brighter response outside (a stronger neighbour, or the target farther "
-            "off than the radius); check the target position or raise search_radius_m"
-        )
-    return int(k[0]), int(k[1])
 
 
 def _envelope(cells: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -387,19 +196,6 @@ def _neighbours(power: NDArray[np.float64], peak_power: float,
                     10.0 * math.log10(float(relative[i0, i1])), float(u[i0, i1]),
                     float(w[i0, i1])))
     return sorted(out, key=lambda item: -item[1])
-
-
-def _cells(shape: tuple[int, ...], peak: NDArray[np.float64], fine_spacing: NDArray[np.float64],
-           geometry: _Geometry) -> dict[str, NDArray[np.float64]]:
-    """Offsets of every upsampled sample from the peak along the response axes, in cells."""
-    basis = np.column_stack([geometry.axes["range"], geometry.axes["azimuth"]])
-    to_axes = np.linalg.inv(basis)  # (dim0, dim1) metre offsets -> (range, azimuth) metres
-    d0 = ((np.arange(shape[0]) - peak[0]) * fine_spacing[0])[:, None]
-    d1 = ((np.arange(shape[1]) - peak[1]) * fine_spacing[1])[None, :]
-    return {
-        name: (to_axes[row, 0] * d0 + to_axes[row, 1] * d1) / geometry.resolution[name]
-        for row, name in enumerate(_DIRECTIONS)
-    }
 
 
 def measure_impulse_response(
@@ -496,7 +292,7 @@ def measure_impulse_response(
     if cut_axes not in CUT_AXES:
         raise ParameterError("measure_impulse_response", "cut_axes", f"one of {CUT_AXES}",
                              cut_axes)
-    geometry = _read_geometry(image, cut_axes)
+    geometry = read_geometry(image, cut_axes)
     cell = max(geometry.resolution.values())
     if chip_cells is None:
         chip_cells = INF_CHIP_CELLS if islr_extent == "inf" else DEFAULT_CHIP_CELLS
@@ -520,8 +316,8 @@ def measure_impulse_response(
     target = equivalent_position(image, checks.vector(
         "measure_impulse_response", "target", target, 3, "the target's world position: "
         "3 finite numbers [m]"))
-    target_index = _locate(geometry, target)
-    pixel = _peak_pixel(geometry, target_index, search_m)
+    target_index = locate_target(geometry, target)
+    pixel = peak_pixel(geometry, target_index, search_m)
     messages: list[str] = []
 
     # Chip of ± chip_cells around the peak (one pixel more, as the peak may be half a pixel off),
@@ -536,18 +332,18 @@ def measure_impulse_response(
         messages.append(band_message)
     factor = max(1, min(factor, math.isqrt(MAX_UPSAMPLED_SAMPLES // chip.size)))
     keep = (np.array(chip.shape) - 1) * factor + 1
-    fine = upsample_chip(chip, factor, band=_occupied_band(geometry))[: keep[0], : keep[1]]
+    fine = upsample_chip(chip, factor, band=occupied_band(geometry))[: keep[0], : keep[1]]
     power = np.abs(fine) ** 2
-    d0, d1 = _dim_offsets(lo, power.shape, factor, target_index, geometry.spacing)
+    d0, d1 = dim_offsets(lo, power.shape, factor, target_index, geometry.spacing)
     distance = np.sqrt(d0**2 + d1**2)
-    peak_int = _fine_peak(power, distance <= search_m, search_m, distance)
-    peak, peak_power = _refine_peak_2d(power, peak_int)
+    peak_int = fine_peak(power, distance <= search_m, search_m, distance)
+    peak, peak_power = refine_peak_2d(power, peak_int)
     fine_spacing = geometry.spacing / factor  # signed, m per upsampled sample
 
     results: dict[str, Any] = {}
     nulls: dict[str, tuple[float, float]] = {}
     needed = MIN_CUT_CELLS if extent == math.inf else extent
-    for name in _DIRECTIONS:
+    for name in DIRECTIONS:
         res = geometry.resolution[name]
         cut, centre, step_m = _take_cut(fine, peak, peak_int, geometry.axes[name], fine_spacing)
         reach = min(centre, cut.size - 1 - centre) * step_m / res
@@ -573,16 +369,17 @@ def measure_impulse_response(
             "cell_m": res,
         }
 
-    cells = _cells(power.shape, peak, fine_spacing, geometry)
+    cells = response_cells(power.shape, peak, fine_spacing, geometry)
     index = lo + peak / factor
-    peak_position = _interpolate_position(geometry.position, index)
+    peak_position = interpolate_position(geometry.position, index)
     # Own sidelobes are told from neighbours in the response's frame, whichever axes are cut.
-    frame = geometry if cut_axes == "response" else _read_geometry(image, "response")
-    own_cells = cells if frame is geometry else _cells(power.shape, peak, fine_spacing, frame)
+    frame = geometry if cut_axes == "response" else read_geometry(image, "response")
+    own_cells = (cells if frame is geometry
+                 else response_cells(power.shape, peak, fine_spacing, frame))
     neighbours = []
     for (i0, i1), level, u, w in _neighbours(power, peak_power, own_cells, extent, factor,
                                              neighbour_db):
-        where = _interpolate_position(geometry.position, lo + np.array([i0, i1]) / factor)
+        where = interpolate_position(geometry.position, lo + np.array([i0, i1]) / factor)
         gap = float(np.linalg.norm(where - peak_position))
         neighbours.append({"position": [float(v) for v in where], "level_db": level,
                            "distance_m": gap, "offset_cells": [u, w]})

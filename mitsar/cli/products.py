@@ -1,0 +1,171 @@
+"""Commands from one product file to the next: ``simulate``, ``range``, ``focus``, ``export``,
+``metrics`` and ``plot`` (docs/cli.md)."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import time
+from typing import Any
+
+from mitsar.cli.common import log
+from mitsar.errors import MitsarError
+from mitsar.experiment.loading import focus_options_from_config, load_experiment, load_grid
+from mitsar.experiment.options import FocusOptions
+from mitsar.experiment.parsers import MAX_SEED
+from mitsar.experiment.runs import run_focus, run_metrics, simulate_to
+from mitsar.export import write_cphd, write_sicd
+from mitsar.focus.compression import range_compress
+from mitsar.io import check_writable, load, save, to_jsonable, write_json
+from mitsar.plots.footprint import scene_range_marks
+from mitsar.plots.products import plot_file
+from mitsar.scene import load_scene
+
+__all__ = ["cmd_export", "cmd_focus", "cmd_metrics", "cmd_plot", "cmd_range", "cmd_simulate",
+           "format_metrics"]
+
+
+def cmd_simulate(args: argparse.Namespace) -> int:
+    """``mitsar simulate``: experiment file -> raw product."""
+    check_writable(args.output, args.overwrite)
+    experiment = load_experiment(args.experiment, args.set)
+    if args.seed is not None:
+        if not 0 <= args.seed <= MAX_SEED:
+            raise MitsarError(f"--seed: expected an integer in [0, {MAX_SEED}] (products "
+                              f"record it as 64 bits), found {args.seed}")
+        experiment.simulation = dataclasses.replace(experiment.simulation, seed=args.seed)
+        experiment.config.setdefault("simulation", {})["seed"] = args.seed
+    start = time.perf_counter()
+    log(args, f"simulating {args.experiment} ...")
+    sweeps = simulate_to(experiment, args.output, overwrite=args.overwrite,
+                         progress=not args.quiet)
+    log(args, f"wrote {args.output}: raw product, {sweeps} sweeps x "
+              f"{experiment.radar.samples_per_sweep} samples "
+              f"({time.perf_counter() - start:.1f} s)")
+    return 0
+
+
+def cmd_range(args: argparse.Namespace) -> int:
+    """``mitsar range``: raw product -> range-compressed product."""
+    check_writable(args.output, args.overwrite)
+    raw = load(args.raw, product="raw")
+    profile = range_compress(raw, window=args.window)
+    save(profile, args.output, overwrite=args.overwrite)
+    log(args, f"wrote {args.output}: range-compressed product, "
+              f"{profile.sizes['sweep']} sweeps x {profile.sizes['range']} range bins")
+    return 0
+
+
+def _focus_options(args: argparse.Namespace, raw: Any) -> Any:
+    """Focus options: command-line flags over ``--grid`` over the raw's experiment."""
+    config = raw.attrs.get("experiment")
+    options = (focus_options_from_config(config, where=f"{args.raw} (experiment)")
+               if config else FocusOptions())
+    changes: dict[str, Any] = {}
+    if args.algorithm is not None:
+        changes["algorithm"] = args.algorithm
+    if args.window is not None:
+        changes["window"] = args.window
+    if args.azimuth_resolution is not None:
+        if not args.azimuth_resolution > 0:
+            raise MitsarError(f"--azimuth-resolution: expected a resolution > 0 m, found "
+                              f"{args.azimuth_resolution}")
+        changes["azimuth_resolution"] = args.azimuth_resolution
+    if args.full_aperture:
+        changes["azimuth_resolution"] = None
+    if args.autofocus is not None:
+        changes["autofocus"] = None if args.autofocus == "none" else args.autofocus
+    if args.grid is not None:
+        changes["grid"] = load_grid(args.grid)
+    if args.default_grid:
+        changes["grid"] = None
+    return dataclasses.replace(options, **changes)
+
+
+def cmd_focus(args: argparse.Namespace) -> int:
+    """``mitsar focus``: raw product -> image product."""
+    check_writable(args.output, args.overwrite)
+    raw = load(args.raw, product="raw")
+    options = _focus_options(args, raw)
+    start = time.perf_counter()
+    log(args, f"focusing {args.raw} with {options.algorithm.upper()} ...")
+    image = run_focus(raw, options, progress=not args.quiet)
+    save(image, args.output, overwrite=args.overwrite)
+    shape = " x ".join(f"{image.sizes[d]} {d}" for d in image["image"].dims)
+    log(args, f"wrote {args.output}: image product, {shape} "
+              f"({time.perf_counter() - start:.1f} s)")
+    return 0
+
+
+def cmd_export(args: argparse.Namespace) -> int:
+    """``mitsar export``: image product -> SICD, raw product -> CPHD (docs/products.md)."""
+    check_writable(args.output, args.overwrite)
+    if args.format == "sicd":
+        if not args.raw:
+            raise MitsarError("mitsar export -f sicd: pass --raw RAW.nc, the raw product the "
+                              "image was focused from (SICD needs the antenna track)")
+        written = write_sicd(load(args.product, product="image"), args.output,
+                             raw=load(args.raw, product="raw"), overwrite=args.overwrite)
+    else:
+        written = write_cphd(load(args.product, product="raw"), args.output,
+                             overwrite=args.overwrite)
+    log(args, f"wrote {written}: {args.format.upper()}")
+    return 0
+
+
+def format_metrics(metrics: dict[str, Any]) -> str:
+    """Impulse-response metrics as a small text table."""
+    target = ", ".join(f"{v:.3f}" for v in metrics.get("target", []))
+    lines = [f"target [{target}] m, peak offset {metrics.get('peak_offset_m', float('nan')):.4f}"
+             f" m, ISLR extent {metrics.get('islr_extent')!r}",
+             f"{'':9}{'IRW [m]':>10}{'IRW [cells]':>13}{'PSLR [dB]':>11}{'ISLR [dB]':>11}"]
+    for name in ("range", "azimuth"):
+        m = metrics[name]
+        lines.append(f"{name:9}{m['irw_m']:>10.4f}{m['irw_cells']:>13.3f}"
+                     f"{m['pslr_db']:>11.2f}{m['islr_db']:>11.2f}")
+    if "islr_2d_db" in metrics:
+        lines.append(f"2-D ISLR {metrics['islr_2d_db']:.2f} dB")
+    if "snr_db" in metrics:  # images of raw data with a noise figure (docs/metrics.md §Noise)
+        lines.append(f"SNR {metrics['snr_db']:.2f} dB, NESZ {metrics['nesz_db']:.2f} dB")
+    lines.extend(f"warning: {message}" for message in metrics.get("warnings", []))
+    return "\n".join(lines)
+
+
+def cmd_metrics(args: argparse.Namespace) -> int:
+    """``mitsar metrics``: image product -> IRW, PSLR, ISLR."""
+    if args.output is not None:
+        check_writable(args.output, args.overwrite)
+    image = load(args.image, product="image")
+    extent: str | float | None = args.islr_extent
+    if extent is not None:
+        try:
+            extent = float(extent)
+        except ValueError:
+            pass  # a named extent ("paper", "isce3", ...), checked by measure_impulse_response
+    metrics = to_jsonable(run_metrics(image, target=args.target, islr_extent=extent))
+    if args.output is not None:
+        write_json(metrics, args.output, overwrite=args.overwrite)
+        log(args, f"wrote {args.output}")
+    print(json.dumps(metrics, indent=2) if args.json else format_metrics(metrics))
+    return 0
+
+
+def _scene_marks(path: str) -> dict[str, float] | None:
+    """NR / CS / FR of an image of a scene experiment from the beam's hits in its scene."""
+    product = load(path)
+    config = json.loads(product.attrs.get("experiment", "{}") or "{}")
+    if product.attrs.get("product") != "image" or not config.get("scene"):
+        return None
+    return scene_range_marks(product, None, load_scene(config["scene"])) or None
+
+
+def cmd_plot(args: argparse.Namespace) -> int:
+    """``mitsar plot``: product file -> figure."""
+    if args.dynamic_range is not None and not args.dynamic_range > 0:
+        raise MitsarError(f"--dynamic-range: expected a colour scale depth > 0 dB, found "
+                          f"{args.dynamic_range}")
+    plot_file(args.file, args.output, overwrite=args.overwrite,
+              dynamic_range_db=args.dynamic_range, range_marks=_scene_marks(args.file))
+    log(args, f"wrote {args.output}")
+    return 0
