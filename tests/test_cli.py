@@ -160,10 +160,11 @@ def test_debug_shows_the_traceback(tmp_path):
         main(["focus", str(tmp_path / "missing.nc"), "-o", str(tmp_path / "x.nc"), "--debug"])
 
 
-def test_entry_point_subprocess(tmp_path):
-    """The installed way: python -m mitsar.cli, a bad file, exit status 2, one clean line."""
+@pytest.mark.parametrize("module", ["mitsar.cli", "mitsar"])
+def test_entry_point_subprocess(tmp_path, module):
+    """The installed ways: python -m mitsar(.cli), a bad file, exit status 2, one clean line."""
     result = subprocess.run(
-        [sys.executable, "-m", "mitsar.cli", "plot", str(tmp_path / "missing.nc"), "-o",
+        [sys.executable, "-m", module, "plot", str(tmp_path / "missing.nc"), "-o",
          str(tmp_path / "fig.png")], capture_output=True, text=True, timeout=120)
     assert result.returncode == 2
     assert "no such file" in result.stderr and "Traceback" not in result.stderr

@@ -1,0 +1,7 @@
+"""``python -m mitsar``: the ``mitsar`` command (:func:`mitsar.cli.main`)."""
+
+import sys
+
+from mitsar.cli import main
+
+sys.exit(main())
