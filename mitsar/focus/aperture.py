@@ -49,6 +49,7 @@ __all__ = [
     "is_uniform_straight_track",
     "normalise_image",
     "sweep_window",
+    "track_coordinates",
 ]
 
 
@@ -100,7 +101,7 @@ def is_uniform_straight_track(raw: xr.Dataset, tolerance: float = 1e-6) -> bool:
     return bool(np.ptp(velocities, axis=0).max() <= tolerance * max(speed, 1e-12))
 
 
-def _track_coordinates(pixels: NDArray, origin: NDArray, direction: NDArray
+def track_coordinates(pixels: NDArray, origin: NDArray, direction: NDArray
                        ) -> tuple[NDArray, NDArray]:
     """Along-track coordinate [m] of every pixel and its distance [m] from the track line.
 
@@ -117,29 +118,33 @@ def _track_coordinates(pixels: NDArray, origin: NDArray, direction: NDArray
 
 def full_aperture_weight(pixels: NDArray, origin: NDArray, direction: NDArray, speed: float,
                          prf: float, centroid_sine: float, half_width: float,
-                         window_mean: float) -> NDArray:
+                         window_mean: float, coordinates: tuple[NDArray, NDArray] | None = None
+                         ) -> NDArray:
     """Sum of azimuth weights a pixel would get from a complete processed aperture.
 
     Along a straight track the direction sine changes per metre by ``(1 - u^2)^(3/2) / r``
     (r: distance of the pixel from the track), so the aperture ``|u - u_c| <= h`` holds
     ``2 h r PRF / (v (1 - u_c^2)^(3/2))`` sweeps, each weighted on average by the window mean.
-    For curved tracks this uses the mean track line (an approximation).
+    For curved tracks this uses the mean track line (an approximation). ``coordinates``:
+    :func:`track_coordinates` of the pixels if already computed.
     """
-    along, distance = _track_coordinates(pixels, origin, direction)
+    along, distance = coordinates or track_coordinates(pixels, origin, direction)
     return (window_mean * 2 * half_width * distance * prf
             / (speed * (1 - centroid_sine**2) ** 1.5))
 
 
 def sweep_window(pixels: NDArray, origin: NDArray, direction: NDArray, sweep_spacing: float,
-                 sweeps: int, centroid_sine: float, half_width: float
+                 sweeps: int, centroid_sine: float, half_width: float,
+                 coordinates: tuple[NDArray, NDArray] | None = None
                  ) -> tuple[NDArray, NDArray]:
     """First and end sweep index that see each pixel within ``|u - u_c| <= h`` (straight track).
 
     The antenna sees direction sine u from along-track ``a - r u / sqrt(1 - u^2)`` (a, r: the
     pixel's along-track coordinate and distance from the track); sweep k sits at
-    ``k * sweep_spacing`` along the track. One sweep of margin either side.
+    ``k * sweep_spacing`` along the track. One sweep of margin either side. ``coordinates``:
+    :func:`track_coordinates` of the pixels if already computed.
     """
-    along, distance = _track_coordinates(pixels, origin, direction)
+    along, distance = coordinates or track_coordinates(pixels, origin, direction)
     limits = np.clip([centroid_sine - half_width, centroid_sine + half_width], -0.999, 0.999)
     slope = limits / np.sqrt(1 - limits**2)
     earliest = (along - distance * slope[1]) / sweep_spacing
@@ -150,14 +155,16 @@ def sweep_window(pixels: NDArray, origin: NDArray, direction: NDArray, sweep_spa
 
 
 def band_coverage(pixels: NDArray, origin: NDArray, direction: NDArray, track_length: float,
-                  centroid_sine: float, half_width: float) -> NDArray:
+                  centroid_sine: float, half_width: float,
+                  coordinates: tuple[NDArray, NDArray] | None = None) -> NDArray:
     """Fraction of a pixel's processed aperture that lies on a straight track, in [0, 1].
 
     The aperture of the band ``|u - u_c| <= h`` is centred where ``u = u_c``, at along-track
     ``a - u_c r / sqrt(1 - u_c^2)``, and is ``2 h r / (1 - u_c^2)^(3/2)`` long (r: distance of
-    the pixel from the track); the track runs from 0 to ``track_length``.
+    the pixel from the track); the track runs from 0 to ``track_length``. ``coordinates``:
+    :func:`track_coordinates` of the pixels if already computed.
     """
-    along, distance = _track_coordinates(pixels, origin, direction)
+    along, distance = coordinates or track_coordinates(pixels, origin, direction)
     centre = along - centroid_sine * distance / np.sqrt(1 - centroid_sine**2)
     half_length = half_width * distance / (1 - centroid_sine**2) ** 1.5
     overlap = (np.minimum(centre + half_length, track_length)

@@ -28,6 +28,7 @@ from mitsar.focus.aperture import (
     full_aperture_weight,
     is_uniform_straight_track,
     normalise_image,
+    track_coordinates,
 )
 from mitsar.focus.compression import range_spectrum
 from mitsar.focus.grid import track_frame
@@ -158,22 +159,26 @@ def prepare(raw: xr.Dataset, *, half_width: float, window: str, range_window: st
                     frequency=frequency, profile=profile)
 
 
-def aperture_weights(prepared: Prepared, raw: xr.Dataset, pixels: NDArray, half_width: float
+def aperture_weights(prepared: Prepared, raw: xr.Dataset, pixels: NDArray, half_width: float,
+                     coordinates: tuple[NDArray, NDArray] | None = None
                      ) -> tuple[NDArray, NDArray | None]:
     """Full-aperture weight of every pixel and, after a Doppler band-pass, its coverage.
 
     The part of :func:`normalise` that needs no BP sum (a focuser may compute it while its
-    kernels run).
+    kernels run). ``coordinates``: the pixels'
+    :func:`mitsar.focus.aperture.track_coordinates` along ``track_frame(raw)``, if known.
     """
     origin, direction, _ = track_frame(raw)
     p = prepared
+    coordinates = coordinates or track_coordinates(pixels, origin, direction)
     signal_weight = full_aperture_weight(pixels, origin, direction, p.mean_speed, p.radar.prf,
-                                         p.mean_centroid, half_width, float(p.coefficients[0]))
+                                         p.mean_centroid, half_width, float(p.coefficients[0]),
+                                         coordinates)
     if p.band_selection != "doppler":
         return signal_weight, None
     track_length = float((p.positions[-1] - origin) @ direction)
     return signal_weight, band_coverage(pixels, origin, direction, track_length,
-                                        p.mean_centroid, half_width)
+                                        p.mean_centroid, half_width, coordinates)
 
 
 def normalise(prepared: Prepared, raw: xr.Dataset, pixels: NDArray, sums: NDArray,

@@ -75,7 +75,7 @@ from tqdm.auto import tqdm
 
 from mitsar.backend import require_llvm
 from mitsar.errors import ParameterError
-from mitsar.focus.aperture import sweep_window
+from mitsar.focus.aperture import sweep_window, track_coordinates
 from mitsar.focus.backprojection import kernel_tables
 from mitsar.focus.bp_setup import aperture_weights, normalise, prepare
 from mitsar.focus.ffbp_stages import (
@@ -213,10 +213,12 @@ def focus_ffbp(raw: xr.Dataset, layout_or_pixels: dict | NDArray, *, half_width:
         bar.update()
 
     # Final stage: onto the pixels, with the azimuth window per sub-aperture.
+    coordinates = None
     if bp.straight:
         origin, direction, _ = track_frame(raw)
+        coordinates = track_coordinates(pixels, origin, direction)
         first, end = sweep_window(pixels, origin, direction, mean_speed / radar.prf,
-                                  len(positions), mean_centroid, kernel_half_width)
+                                  len(positions), mean_centroid, kernel_half_width, coordinates)
         first_child = np.searchsorted(stage.end, first, side="right").astype(np.uint32)
         end_child = np.searchsorted(stage.first, end, side="left").astype(np.uint32)
     else:
@@ -224,7 +226,7 @@ def focus_ffbp(raw: xr.Dataset, layout_or_pixels: dict | NDArray, *, half_width:
         end_child = np.full(len(pixels), len(stage.first), dtype=np.uint32)
     launched = merge_points(stage, pixels - origin_local, first_child, end_child, wavenumber,
                             with_totals)
-    weights = aperture_weights(bp, raw, pixels, half_width)  # while the kernel runs
+    weights = aperture_weights(bp, raw, pixels, half_width, coordinates)  # while it runs
     merged, total = to_numpy(*launched)
     bar.update()
     bar.close()
@@ -357,7 +359,7 @@ def _longest_subaperture(track: NDArray, sample: NDArray, radar: Radar, settings
     1 m (the default plan) -32.5 dB from exact BPA, 2.7 m -19.7 dB, 4.1 m -6.9 dB; this
     bound allows 1.57 m there (docs/focusing.md § FFBP).
     """
-    step = max(1, len(track) // 256)
+    step = max(1, len(track) // 64)
     offsets = track[::step, None, :] - sample[None, :, :]
     rho_min = float(np.sqrt((offsets**2).sum(axis=-1)).min())
     limit = 2 * rho_min * math.sqrt(_CURVATURE_SHARE * settings["range_oversample"]
