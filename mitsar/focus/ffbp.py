@@ -33,9 +33,10 @@ Steps of :func:`focus_ffbp`:
    and demodulated by the parent's ``exp(+j 2 pi f_c 2 rho_P / c)``, i.e. rotated by
    ``2 pi (2 f_c / c)(rho_P - rho_j)``, computed as ``(c_j - c_P).(2y - c_P - c_j) /
    (rho_P + rho_j)`` so that float32 keeps it (:func:`mitsar.focus.ffbp_stages.merge_nodes`):
-   one lane per node and a symbolic loop over its children; each tap is one 64-bit gather of
-   a (real, imag) float32 pair; the sums of the weights only where the normalisation reads
-   them ("pixel" band selection);
+   one lane per node and a symbolic loop over its children; each row of four taps is one
+   packet load of (real, imag) float32 pairs; the sums of the weights only where the
+   normalisation reads them ("pixel" band selection); merging stops before sub-apertures
+   grow too long for the polar grids' range sampling (:func:`_longest_subaperture`);
 5. final stage: the remaining sub-apertures are merged onto the output pixels the same way
    (:func:`mitsar.focus.ffbp_stages.merge_points`), re-modulated by the carrier of the
    range from a local origin (float64 range), and normalised as BPA
