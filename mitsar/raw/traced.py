@@ -76,7 +76,7 @@ def trace(radar: Radar, trajectory: Trajectory, look: Look, scene: Any, *,
           navigation: Trajectory | NavigationErrors | None = None,
           visibility_feature: float | None = None, motion: dict | None = None,
           physical_optics: bool | Sequence[str] = False,
-          deterministic: bool = True) -> xr.Dataset:
+          deterministic: bool = True, block_kernel: bool | None = None) -> xr.Dataset:
     """Ray-trace an acquisition of a Mitsuba scene into range histograms.
 
     Parameters
@@ -160,6 +160,11 @@ def trace(radar: Radar, trajectory: Trajectory, look: Look, scene: Any, *,
         run in one order and the same inputs give bit-identical data run after run. ``False``
         uses every core (1.1-1.8x faster on two cores; bins then differ by ~1e-16 of the
         peak between runs; docs/integrator.md, determinism).
+    block_kernel : bool, optional
+        Direct backscatter of static 3-D scenes with shared shadow rays by the block kernel,
+        a lane per (scatterer, block of sweeps) (default, XML ``block_kernel``), or ``False``:
+        a lane per (scatterer, sweep), the kernels before it (docs/integrator.md
+        §"Performance").
 
     Returns
     -------
@@ -169,7 +174,8 @@ def trace(radar: Radar, trajectory: Trajectory, look: Look, scene: Any, *,
     run = TraceRun("trace", radar, trajectory, look, scene, density, seed, sweeps, chunk_lanes,
                bins_per_cell, beam_cull, scene_params,
                {**_multipath_options(max_depth, rays, ray_cover, capture, ghosts, plane_normal,
-                                     slab_width), "visibility_feature": visibility_feature},
+                                     slab_width), "visibility_feature": visibility_feature,
+                "block_kernel": block_kernel},
                receiver_offset, receiver_look, backscatter, navigation, motion, physical_optics,
                deterministic=deterministic)
     parts, indices = [], []

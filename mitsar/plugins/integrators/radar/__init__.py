@@ -15,7 +15,8 @@ module               stage                                                      
 :mod:`.setup`        per-acquisition ray frames, 2D plane, bistatic receiver, ray grid   no
 :mod:`.constants`    packed launch constants and per-sweep / per-scatterer device arrays yes
 :mod:`.deposit`      the one deposit of every mechanism into the histogram               yes
-:mod:`.backscatter`  mechanism 1: candidates, cull, trace (three staged kernels)         yes
+:mod:`.backscatter`  mechanism 1: candidates, cull, trace (staged kernels), probes        yes
+:mod:`.blocks`       mechanism 1's block kernel: a lane per scatterer and sweep block    yes
 :mod:`.bounce`       mechanism 2: shooting and bouncing rays, capture, ghosts            yes
 :mod:`.integrator`   the Mitsuba plugin class and ``register()``                         yes
 ==================== =================================================================== ======

@@ -1,4 +1,4 @@
-"""Mechanism 1: direct backscatter of the scene's scatterers, traced as three staged kernels.
+"""Mechanism 1: direct backscatter of the scene's scatterers, traced as staged kernels.
 
 Per chunk of sweeps (docs/design.md §5.4, docs/integrator.md):
 
@@ -13,8 +13,13 @@ Per chunk of sweeps (docs/design.md §5.4, docs/integrator.md):
 Visibility is a shadow ray per lane, or, with visibility reuse (docs/integrator.md
 §"Visibility reuse"), the answer of :func:`probe`, which casts the shadow rays of the first and
 last sweep of each block of sweeps per candidate: lanes whose block ends agree take that answer,
-the others cast their own ray. :func:`backscatter_chunk` runs the kernels for one chunk of
-sweeps.
+the others cast their own ray.
+
+Static 3-D scatterer sets with visibility reuse take the block kernel instead of steps 2-3
+(:mod:`.blocks`, docs/integrator.md §"Performance"): :func:`shared_probe` (one ray per block
+boundary), :func:`~.blocks.block_trace` over (candidate, block) pairs whose ends agree, and
+:func:`split_trace` (steps 2-3 with a ray per lane) over the pairs whose ends disagree.
+:func:`backscatter_chunk` runs the kernels for one chunk of sweeps.
 """
 
 from __future__ import annotations
@@ -28,15 +33,27 @@ from numpy.typing import NDArray
 
 from mitsar.model.doublelobe import TABLE_SIZE, interp_theta_table
 from mitsar.model.geometry.antenna import field_pattern
-from mitsar.model.geometry.visibility import sight_line_motion, visibility_blocks
+from mitsar.model.geometry.visibility import (
+    shared_probe_sweeps,
+    sight_line_motion,
+    visibility_blocks,
+)
 from mitsar.model.radar import Radar
+from mitsar.plugins.integrators.radar.blocks import (
+    add_packets,
+    block_trace,
+    frame_sines,
+    packet_buffer,
+)
 from mitsar.plugins.integrators.radar.config import RadarIntegratorConfig
 from mitsar.plugins.integrators.radar.constants import (
     BACKSCATTER_FLOATS,
     Constants,
     backscatter_sweep_arrays,
+    block_step_arrays,
     chunk_bounds,
     lane_pairs,
+    shared_probe_arrays,
     visibility_block_arrays,
 )
 from mitsar.plugins.integrators.radar.deposit import deposit
@@ -57,12 +74,6 @@ def _moved(p: Any, sc: dict, name: str, m: Any, t: Any) -> Any:
     return p + v * t
 
 
-def _frame_sines(d: Any, get: Any, prefix: str) -> tuple[Any, Any, Any]:
-    """Direction sines of ``d`` in the frame whose entries ``get(prefix + "ij")`` returns."""
-    return tuple(d.x * get(f"{prefix}0{j}") + d.y * get(f"{prefix}1{j}")
-                 + d.z * get(f"{prefix}2{j}") for j in range(3))
-
-
 def candidates(sc: dict, k: Constants, count: int) -> Any:
     """Scatterers that may lie in the beam of some sweep of the chunk (``dr.compress``).
 
@@ -77,7 +88,7 @@ def candidates(sc: dict, k: Constants, count: int) -> Any:
     o = mi.Vector3f(*(_moved(dr.gather(f32, sc[f"p{a}32"], m), sc, f"v{a}32", m, t)
                       - k.f32(f"mid_p{a}") for a in "xyz"))
     r = dr.norm(o)
-    u_az, u_el, cos_b = _frame_sines(o / r, k.f32, "mid_f")
+    u_az, u_el, cos_b = frame_sines(o / r, k.f32, "mid_f")
     margin = 2.0 * k.f32("mid_disp") / r + k.f32("mid_turn") + 1e-4
     active = ((cos_b > -margin) & (dr.abs(u_az) < k.f32("cull_az") + margin)
               & (dr.abs(u_el) < k.f32("cull_el") + margin)) | (r <= 2.0 * k.f32("mid_disp"))
@@ -109,7 +120,7 @@ def _in_beam(k: Constants, sc: dict, gs: Any, gm: Any, planar: bool) -> Any:
     o = mi.Vector3f(*(_moved(gm(f"p{a}32"), sc, f"v{a}32", gm, t) - gs(f"p{a}32")
                       for a in "xyz"))
     r = dr.norm(o)
-    u_az, u_el, cos_b = _frame_sines(o / r, gs, "f")
+    u_az, u_el, cos_b = frame_sines(o / r, gs, "f")
     slack = 2.0 * k.f32("inv_step")  # float32 range error << 2 bins
     x = (r - k.f32("first_range")) * k.f32("inv_step")
     active = ((cos_b > 0.0) & (dr.abs(u_az) < k.f32("cull_az"))
@@ -178,6 +189,27 @@ def probe(scene: Any, sc: dict, sw: dict, k: Constants, found: Any, width: int,
                              dr.gather(u32, sw["block_last"], block))
 
 
+def shared_probe(scene: Any, sc: dict, sw: dict, k: Constants, found: Any, width: int,
+                 probes: int, blocks: int) -> Any:
+    """Visibility codes as :func:`probe` returns them, from one shadow ray per candidate and
+    probed sweep (``sw["probe_sweep"]``), each shared by two neighbouring blocks: block ``b``
+    counts the rays at its sweeps ``probe_first[b]`` and ``probe_end[b]`` (the next block's
+    first; docs/integrator.md §"Visibility reuse", ``shared_ends``). Two kernels: the rays
+    (lanes probe-slowest, ``k["width"]`` candidates each), then the codes."""
+    u32 = mi.UInt32
+    idx = dr.arange(u32, width * probes)
+    probe_index = idx // k["width"]
+    m = dr.gather(u32, found, idx - probe_index * k["width"] + k["first"])
+    seen = u32(dr.select(_visible(scene, sc, sw, dr.gather(u32, sw["probe_sweep"], probe_index),
+                                  m, mi.Bool(True)), 1, 0))
+    dr.eval(seen)
+    idx = dr.arange(u32, width * blocks)
+    local = idx // k["blocks"]
+    block = idx - local * k["blocks"]
+    return (dr.gather(u32, seen, dr.gather(u32, sw["probe_first"], block) * k["width"] + local)
+            + dr.gather(u32, seen, dr.gather(u32, sw["probe_end"], block) * k["width"] + local))
+
+
 def trace(scene: Any, sc: dict, sw: dict, k: Constants, found: Any, lanes: Any, re: Any,
           im: Any, visibility: Any = None) -> None:
     """Trace the culled lanes ``lanes`` and deposit them into ``re``/``im`` (order 0).
@@ -229,7 +261,7 @@ def _contribute(scene: Any, sc: dict, sw: dict, k: Constants, s: Any, m: Any, ac
     rdot = sum((qi - ai) * vi for qi, ai, vi in zip(q, a, v_rel, strict=True)) * inv_r
 
     # 2. Two-way pattern: the one-way sinc^2 power pattern is the amplitude factor.
-    u_az, u_el, _ = _frame_sines(d, lambda name: gs(name, f32), "f")
+    u_az, u_el, _ = frame_sines(d, lambda name: gs(name, f32), "f")
     one_way = dr.square(field_pattern(u_az, u_el, k.f32("beta_az"), k.f32("beta_el"),
                                       DRJIT_OPS))
 
@@ -275,24 +307,59 @@ def backscatter_chunk(scene: Any, device: dict, geometry: dict, frames: NDArray,
     k["first"], k["sweeps"] = 0, len(chosen)
     motion = sight_line_motion(geometry["position"][chosen], geometry["slow_time"][chosen],
                                target_speed)
+    # The block kernel (a lane per candidate x block, docs/integrator.md §"Performance") serves
+    # static 3D scatterer sets with shared shadow rays; moving sets, the 2D mode and a ray per
+    # sweep keep the lane kernels. Its probes share the rays at block boundaries unless the
+    # caller caps the blocks (e.g. at scene changes).
+    blocked = config.block_kernel and device["static"] and not sw["planar"]
+    shared = blocked and visibility_block is None
     blocks = visibility_blocks(motion, float(config.visibility_feature),
                                len(chosen) if visibility_block is None
-                               else max(1, int(visibility_block)))
+                               else max(1, int(visibility_block)), shared_ends=shared)
     reuse = int(blocks[-1]) + 1 < len(chosen)  # else: a ray per sweep, no probe needed
     if reuse:
         sw.update(visibility_block_arrays(blocks))
         block_sizes = np.bincount(blocks)
+        if shared:
+            probe_sweeps, probe_first, probe_end = shared_probe_sweeps(
+                motion, blocks, float(config.visibility_feature))
+            sw.update(shared_probe_arrays(probe_sweeps, probe_first, probe_end))
     k["blocks"] = int(blocks[-1]) + 1
     found = candidates(device, Constants(k, BACKSCATTER_FLOATS), count)
     width_found = dr.width(found)
     block = max(1, config.chunk_lanes // len(chosen))
     statistics["pairs"] += count * len(chosen)
     statistics["candidate_pairs"] += width_found * len(chosen)
+    packets = packet_buffer(len(chosen), k["bins"]) if blocked and reuse else None
+    if packets is not None:
+        steps, uniform = block_step_arrays(geometry, frames, chosen, blocks)
+        sw.update(steps)
     for m0 in range(0, width_found, block):
         width = min(block, width_found - m0)
-        k["first"] = m0
+        k["first"], k["width"] = m0, width
         consts = Constants(k, BACKSCATTER_FLOATS)
         statistics["launches"] += 1
+        if packets is not None:
+            if shared:
+                visibility = shared_probe(scene, device, sw, consts, found, width,
+                                          len(probe_sweeps), k["blocks"])
+                statistics["visibility_rays"] += width * len(probe_sweeps)
+            else:
+                visibility = probe(scene, device, sw, consts, found, width, k["blocks"])
+                statistics["visibility_rays"] += width * int(np.sum(np.minimum(block_sizes,
+                                                                               2)))
+            dr.eval(visibility)
+            contributions = block_trace(device, sw, consts, found, visibility, packets,
+                                        uniform)
+            dr.eval(packets, contributions)
+            statistics["shadow_rays"] += int(dr.sum(contributions)[0])
+            split = dr.compress(visibility == 1)
+            statistics["visibility_split"] += dr.width(split)
+            if dr.width(split):
+                statistics["shadow_rays"] += split_trace(scene, device, sw, consts, found,
+                                                         split, len(chosen), re, im)
+            dr.eval(re, im)
+            continue
         lanes = cull(device, sw, consts, found, len(chosen) * width)
         statistics["shadow_rays"] += dr.width(lanes)
         if dr.width(lanes):
@@ -305,3 +372,45 @@ def backscatter_chunk(scene: Any, device: dict, geometry: dict, frames: NDArray,
                 statistics["visibility_split"] += int(dr.count(visibility == 1)[0])
             trace(scene, device, sw, consts, found, lanes, re, im, visibility)
         dr.eval(re, im)
+    if packets is not None:
+        add_packets(packets, Constants(k, BACKSCATTER_FLOATS), len(chosen), k["bins"], re, im)
+        dr.eval(re, im)
+
+
+def _split_lanes(sw: dict, k: Constants, found: Any, split: Any, lanes: Any) -> tuple[Any, Any,
+                                                                                       Any]:
+    """Lane -> (sweep, scatterer, inside its block) for :func:`split_trace`: ``k["sweeps"]``
+    lanes per split pair ``split[lane // sweeps]`` (a :func:`probe` index), the ``j``-th
+    sweep of the pair's block."""
+    u32 = mi.UInt32
+    pair_slot = lanes // k["sweeps"]
+    j = lanes - pair_slot * k["sweeps"]
+    pair = dr.gather(u32, split, pair_slot)
+    local = pair // k["blocks"]
+    block = pair - local * k["blocks"]
+    s = dr.gather(u32, sw["block_first"], block) + j
+    m = dr.gather(u32, found, local + k["first"])
+    return s, m, s <= dr.gather(u32, sw["block_last"], block)
+
+
+def split_trace(scene: Any, sc: dict, sw: dict, k: Constants, found: Any, split: Any,
+                sweeps: int, re: Any, im: Any) -> int:
+    """Trace the sweeps of the (candidate, block) pairs whose block ends disagree (``split``:
+    their :func:`probe` indices) as :func:`cull` + :func:`trace` do, a shadow ray per lane
+    in the beam and the bin grid. ``sweeps`` (the chunk's length, ``k["sweeps"]``) lanes per
+    pair bound its block. Returns the number of lanes in the beam and the bin grid."""
+    lanes = dr.width(split) * sweeps
+    idx = dr.arange(mi.UInt32, lanes)
+    s, m, inside = _split_lanes(sw, k, found, split, idx)
+
+    def gs(name: str) -> Any:
+        return dr.gather(mi.Float, sw[name], s)
+
+    def gm(name: str) -> Any:
+        return dr.gather(mi.Float, sc[name], m)
+
+    kept = dr.compress(inside & _in_beam(k, sc, gs, gm, sw["planar"]))
+    if dr.width(kept):
+        s, m, _ = _split_lanes(sw, k, found, split, kept)
+        _contribute(scene, sc, sw, k, s, m, mi.Bool(True), None, re, im)
+    return dr.width(kept)

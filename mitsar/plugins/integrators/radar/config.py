@@ -25,7 +25,7 @@ PLUGIN_NAME = "radar"
 PARAMETERS: tuple[str, ...] = ("scatterer_density", "scatterers_per_cell", "max_depth",
                                "chunk_lanes", "seed", "bins_per_cell", "beam_cull", "rays",
                                "ray_cover", "capture", "ghosts", "plane_normal", "slab_width",
-                               "visibility_feature")
+                               "visibility_feature", "block_kernel")
 """Accepted XML parameters."""
 
 MAX_LANES = 2**26
@@ -48,6 +48,12 @@ SWEEPS_PER_CHUNK = 64
 
 HISTOGRAM_CHUNK_ELEMENTS = 2**22
 """Bound on sweeps x orders x bins of the histogram buffer of one launch (2 x 32 MiB)."""
+
+def histogram_buffer_length(size: int) -> int:
+    """Length of a histogram buffer of ``size`` elements: the next power of two, at least 2^16
+    (the length is a literal of the kernels: a few lengths, a few compilations)."""
+    return max(2**16, 1 << (max(int(size), 1) - 1).bit_length())
+
 
 AZIMUTH_CELL = 0.10
 """Azimuth size of the resolution cell for ``scatterers_per_cell`` [m] (paper Table 1)."""
@@ -80,6 +86,9 @@ class RadarIntegratorConfig:
     plane_normal: tuple[float, float, float] | None = None
     slab_width: float = AZIMUTH_CELL
     visibility_feature: float = DEFAULT_VISIBILITY_FEATURE
+    block_kernel: bool = True
+    """Direct backscatter of static 3-D scatterer sets with visibility reuse by the block
+    kernel (:mod:`.blocks`, docs/integrator.md §"Performance"); False: the lane kernels."""
 
     def __post_init__(self) -> None:
         self.validate("radar")
@@ -104,6 +113,7 @@ class RadarIntegratorConfig:
         if self.capture not in CAPTURE_KINDS:
             raise ParameterError(where, "capture", f"one of {list(CAPTURE_KINDS)}", self.capture)
         checks.boolean(where, "ghosts", self.ghosts)
+        checks.boolean(where, "block_kernel", self.block_kernel)
         if self.plane_normal is not None:
             normal = np.asarray(self.plane_normal, dtype=float)
             if normal.shape != (3,) or not np.all(np.isfinite(normal)) \

@@ -19,6 +19,8 @@ XML (every parameter optional)::
         <float   name="slab_width"  value="0.1"/>  <!-- 2D mode: width of the scatterer slab -->
         <float   name="visibility_feature" value="0.03"/>  <!-- m: shadow rays shared across
                                                    sweeps; 0: a ray per sweep -->
+        <boolean name="block_kernel" value="true"/>  <!-- static 3-D direct backscatter by the
+                                                   block kernel; false: the lane kernels -->
     </integrator>
 
 Unknown parameters raise :class:`~mitsar.errors.ParameterError` naming the parameter. Without a
@@ -55,6 +57,7 @@ from mitsar.plugins.integrators.radar.config import (
     PLUGIN_NAME,
     SWEEPS_PER_CHUNK,
     RadarIntegratorConfig,
+    histogram_buffer_length,
 )
 from mitsar.plugins.integrators.radar.constants import (
     MULTIPATH_FLOATS,
@@ -212,10 +215,12 @@ def _make_class() -> type:
                 for s0 in range(0, len(sweeps), per_chunk):
                     chosen = sweeps[s0:s0 + per_chunk]
                     size = len(chosen) * orders * bins
-                    # A buffer of one fixed size: its length is a literal of the compiled
-                    # kernels, so sizing it per acquisition would recompile them every time.
-                    re = dr.zeros(mi.Float64, max(size, HISTOGRAM_CHUNK_ELEMENTS))
-                    im = dr.zeros(mi.Float64, max(size, HISTOGRAM_CHUNK_ELEMENTS))
+                    # A buffer of a power-of-two size: its length is a literal of the compiled
+                    # kernels, so sizing it per acquisition would recompile them every time
+                    # (at most 7 sizes; a fixed 2^22 cost ~5 ms of zeroing per chunk).
+                    length = histogram_buffer_length(size)
+                    re = dr.zeros(mi.Float64, length)
+                    im = dr.zeros(mi.Float64, length)
                     if count:
                         backscatter_chunk(scene, device, geometry, frames, radar, setup, chosen,
                                           k, target_speed, config, re, im, self.statistics,

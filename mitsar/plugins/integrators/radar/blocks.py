@@ -1,0 +1,240 @@
+"""Mechanism 1's block kernel: one lane per (scatterer, visibility block), sweeps advanced in
+float32 from the block's first one, deposited as packets (docs/integrator.md §"Performance").
+
+:func:`block_trace` is the kernel; :func:`packet_buffer` and :func:`add_packets` hold and fold its
+deposits into the histogram. :func:`~.backscatter.backscatter_chunk` runs it for static 3-D
+scatterer sets whose shadow rays are shared by visibility blocks (the probes, and the lanes of
+blocks whose ends disagree, stay in :mod:`.backscatter`).
+"""
+
+from __future__ import annotations
+
+import importlib
+from types import SimpleNamespace
+from typing import Any
+
+import drjit as dr
+import mitsuba as mi
+
+from mitsar.model import histogram as hg
+from mitsar.model.doublelobe import TABLE_SIZE, interp_theta_table
+from mitsar.model.geometry.antenna import field_pattern
+from mitsar.model.radar import SPEED_OF_LIGHT
+from mitsar.plugins.integrators.radar.config import histogram_buffer_length
+from mitsar.plugins.integrators.radar.constants import Constants
+from mitsar.plugins.ops import DRJIT_OPS
+
+
+def _array4f() -> type:
+    """Four float32 per lane in the active variant's Dr.Jit namespace (e.g. ``drjit.llvm.ad``):
+    the packet of :func:`block_trace` (resolved at call time: a variant must be set)."""
+    return importlib.import_module(type(mi.Float()).__module__).Array4f
+
+
+def frame_sines(d: Any, get: Any, prefix: str) -> tuple[Any, Any, Any]:
+    """Direction sines of ``d`` in the frame whose entries ``get(prefix + "ij")`` returns."""
+    return tuple(d.x * get(f"{prefix}0{j}") + d.y * get(f"{prefix}1{j}")
+                 + d.z * get(f"{prefix}2{j}") for j in range(3))
+
+
+def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, packets: Any,
+                uniform: bool) -> Any:
+    """Trace the (candidate, block) pairs whose block ends agree: a symbolic loop over sweeps.
+
+    Lanes are the ``width`` candidates ``first ..`` of the launch times the chunk's visibility
+    blocks, candidate-fastest: the lanes of a SIMD packet share their block, hence their trip
+    count and the block's antenna data (measured 8 % faster than block-fastest). ``visibility``
+    holds the probe codes (:func:`~.backscatter.probe` layout): pairs seen at both ends of their
+    block (code 2) deposit every sweep in the beam without a shadow ray (docs/integrator.md
+    §"Visibility reuse"); pairs hidden at both ends (0) are counted but deposit nothing; pairs
+    whose ends disagree (1) run no sweep here (:func:`~.backscatter.split_trace`).
+
+    A lane gathers its scatterer once and evaluates in float64, at the block's first sweep, the
+    range ``R_0``, the wrapped deposit phase ``f_c tau_0 - K tau_0^2/2 + phi`` and the bin
+    position (docs/design.md §5.5). Per sweep ``j`` it evaluates in float32 what
+    :func:`~.backscatter.trace` evaluates per (scatterer, sweep) lane of a static 3-D set:
+
+    - geometry: with ``uniform`` (every block of the chunk moves the antenna by a step ``s``
+      per sweep with one frame and velocity, :func:`~.constants.block_step_arrays`),
+      ``R_j^2 - R_0^2 = j (j |s|^2 - 2 o_0.s)`` and ``d_j = R_j - R_0`` from it, no gather;
+      otherwise the antenna position, velocity and frame are gathered per sweep and ``R_j``
+      taken in float64;
+    - beam test on the direction sines, as :func:`~.backscatter.cull`;
+    - amplitude (two-way pattern, σ⁰ table, radar equation ``1/R^2``): with ``uniform``, the
+      quadratic in ``j`` through its exact values at the block's first, middle and last sweep
+      (it is smooth: the direction moves by less than ``visibility_feature / R`` over a
+      block); otherwise exact per sweep (a turning frame moves the pattern faster);
+    - bin: ``x_j = x_0 + (d_j + (f_c/K) dR/dt) / dr`` (:func:`mitsar.model.histogram.
+      apparent_range`), split linearly;
+    - phase: ``cycles_0 + deposit_cycles_change(d_j)`` (exact change of the quadratic phase),
+      wrapped, ``sincos`` in float32;
+    - deposit: one packet of four float32 (re, im of the lower and of the upper bin) added at
+      ``4 (s bins + lower)`` of ``packets``, non-atomically (``ReduceMode.Expand``: a copy per
+      thread); :func:`add_packets` folds them into the float64 histogram.
+
+    docs/integrator.md §"Performance" gives the measured error against the lane kernels.
+
+    Returns
+    -------
+    mi.UInt32
+        Per lane, the number of its sweeps in the beam and the bin grid (contributions).
+    """
+    f64, f32, u32, i32, packet = mi.Float64, mi.Float, mi.UInt32, mi.Int32, _array4f()
+    idx = dr.arange(u32, dr.width(visibility))
+    block = idx // k["width"]
+    local = idx - block * k["width"]
+    m = dr.gather(u32, found, local + k["first"])
+    code = dr.gather(u32, visibility, local * k["blocks"] + block)
+    first = dr.gather(u32, sw["block_first"], block)
+    span = dr.gather(u32, sw["block_last"], block) - first  # the block's sweeps, minus one
+    end = dr.select(code == 1, first, first + span + 1)  # code 1: no sweep here
+    seen = code == 2
+    # Once per lane, float64: the scatterer and its geometry at the block's first sweep.
+    q = [dr.gather(f64, sc[f"p{a}"], m) for a in "xyz"]
+    o0 = [qi - dr.gather(f64, sw[f"p{a}"], first) for qi, a in zip(q, "xyz", strict=True)]
+    r0 = dr.sqrt(o0[0] * o0[0] + o0[1] * o0[1] + o0[2] * o0[2])
+    cycles0 = (hg.deposit_cycles(r0 * (2.0 / SPEED_OF_LIGHT), k, k["rvp"])
+               + dr.gather(f64, sc["phase"], m))
+    cycles0 = f32(cycles0 - dr.floor(cycles0))
+    position0 = (r0 - k["first_range"]) * k["inv_step"]
+    bin0 = dr.floor(position0)
+    fraction0 = f32(position0 - bin0)
+    bin0 = i32(bin0)
+    n = mi.Vector3f(*(dr.gather(f32, sc[f"n{a}"], m) for a in "xyz"))
+    weight = dr.gather(f32, sc["weight"], m)
+    offset = f32(dr.gather(u32, sc["row"], m) * TABLE_SIZE)
+    r0f = f32(r0)
+    o0f = mi.Vector3f(*(f32(c) for c in o0))
+    radar32 = SimpleNamespace(carrier_frequency=k.f32("fc"), chirp_rate=k.f32("chirp_rate"))
+    rvp, inv_step = k.f32("rvp"), k.f32("inv_step")
+    doppler = k.f32("fc") / k.f32("chirp_rate")  # apparent range per unit range rate [s]
+    scale = dr.select(k["normalized"] > 0.0, 0.0, k.f32("radar_const"))
+    last_lower = i32(k["last_lower"])
+    if uniform:
+        step = mi.Vector3f(*(dr.gather(f32, sw[f"step{a}"], block) for a in "xyz"))
+        lin = f32(2.0 * (o0[0] * f64(step.x) + o0[1] * f64(step.y) + o0[2] * f64(step.z)))
+        quad = dr.squared_norm(step)
+        fixed = {name: dr.gather(f32, sw[name], first) for name in _FRAME_NAMES}
+        velocity = mi.Vector3f(*(f32(dr.gather(f64, sw[f"v{a}"], first)) for a in "xyz"))
+        node = f32(span) * 0.5
+        nodes = [(o0f - j * step, fixed.__getitem__) for j in (0.0, node, f32(span))]
+    else:
+        node = f32(span // 2)
+
+        def at(s: Any) -> tuple[Any, Any]:
+            o = mi.Vector3f(*(f32(qi - dr.gather(f64, sw[f"p{a}"], s))
+                              for qi, a in zip(q, "xyz", strict=True)))
+            return o, lambda name: dr.gather(f32, sw[name], s)
+
+        nodes = [at(first), at(first + span // 2), at(first + span)]
+
+    beta_az, beta_el = k.f32("beta_az"), k.f32("beta_el")
+
+    def amplitude(o: Any, frame: Any) -> Any:
+        """What :func:`~.backscatter.trace` deposits along ``o`` before the phase: two-way pattern,
+        sqrt(σ⁰(θ_i) × area share) and the radar equation's ``1/R^2`` (or 1, normalised)."""
+        inv = dr.rsqrt(dr.squared_norm(o))
+        d = o * inv
+        u_az, u_el, _ = frame_sines(d, frame, "f")
+        one_way = dr.square(field_pattern(u_az, u_el, beta_az, beta_el, DRJIT_OPS))
+        sigma = interp_theta_table(sc["tables"], TABLE_SIZE, dr.abs(dr.dot(n, d)), DRJIT_OPS,
+                                   offset=offset) * weight
+        return one_way * dr.sqrt(sigma) * dr.select(scale > 0.0, scale * inv * inv, 1.0)
+
+    # The amplitude, smooth over a block, as the quadratic through the block's first, middle
+    # and last sweep (Newton form; docs/integrator.md §"Performance" states its error); the
+    # gather path (not uniform) uses the nodes only to know whether anything is lit.
+    a0, a1, a2 = (amplitude(o, frame) for o, frame in nodes)
+    whole = f32(span)
+    d1 = dr.select(node > 0.0, (a1 - a0) / dr.maximum(node, 1e-30), 0.0)
+    d2 = dr.select(whole > node, ((a2 - a1) / dr.maximum(whole - node, 1e-30) - d1)
+                   / dr.maximum(whole, 1e-30), 0.0)
+    lit = (a0 > 0.0) | (a1 > 0.0) | (a2 > 0.0)
+    # Constants read once, outside the loop (gathers inside it are not hoisted past the
+    # scatter into ``packets``).
+    cull_az, cull_el, bins = k.f32("cull_az"), k.f32("cull_el"), k["bins"]
+
+    def condition(s: Any, count: Any) -> Any:
+        return s < end
+
+    def body(s: Any, count: Any) -> tuple[Any, Any]:
+        j = f32(s - first)
+        if uniform:
+            change = j * (j * quad - lin)  # R_j^2 - R_0^2 [m^2]
+            o = o0f - j * step
+            r = dr.sqrt(r0f * r0f + change)
+            inv = 1.0 / (r * (r + r0f))  # one division for d_j and dR/dt
+            delta = change * r * inv
+            rdot = -dr.dot(o, velocity) * (r + r0f) * inv
+            frame = fixed.__getitem__
+        else:
+            o64 = [qi - dr.gather(f64, sw[f"p{a}"], s) for qi, a in zip(q, "xyz", strict=True)]
+            r64 = dr.sqrt(o64[0] * o64[0] + o64[1] * o64[1] + o64[2] * o64[2])
+            delta, r = f32(r64 - r0), f32(r64)
+            o = mi.Vector3f(*(f32(c) for c in o64))
+            v = mi.Vector3f(*(f32(dr.gather(f64, sw[f"v{a}"], s)) for a in "xyz"))
+            rdot = -dr.dot(o, v) / r
+
+            def frame(name: str) -> Any:
+                return dr.gather(f32, sw[name], s)
+
+        # Beam test on the unnormalised direction: |u| < cull <=> |f.o| < cull R.
+        s_az, s_el, s_b = frame_sines(o, frame, "f")
+        in_beam = (s_b > 0.0) & (dr.abs(s_az) < cull_az * r) & (dr.abs(s_el) < cull_el * r)
+        # A turning frame moves the pattern too fast for the quadratic: exact per sweep.
+        amp = a0 + j * (d1 + (j - node) * d2) if uniform else amplitude(o, frame)
+        # Bin: apparent range R_j + (f_c/K) dR/dt (hg.apparent_range) relative to bin0, with
+        # dR/dt = -(o.v)/R (o points from the antenna to the static scatterer).
+        x = fraction0 + (delta + doppler * rdot) * inv_step
+        lower, w_lo, w_hi = hg.split_weights(x, dr.floor)
+        lower = bin0 + i32(lower)
+        in_grid = (lower >= 0) & (lower < last_lower)
+        active = in_beam & in_grid & seen & lit
+        cycles = cycles0 + hg.deposit_cycles_change(delta, r0f, radar32, rvp)
+        sin_p, cos_p = dr.sincos((2.0 * dr.pi) * (cycles - dr.floor(cycles)))
+        v_re, v_im = amp * cos_p, amp * sin_p
+        value = packet(v_re * w_lo, v_im * w_lo, v_re * w_hi, v_im * w_hi)
+        index = s * bins + u32(dr.select(active, lower, 0))
+        dr.scatter_reduce(dr.ReduceOp.Add, packets, value, index, active,
+                          mode=dr.ReduceMode.Expand)
+        return s + 1, count + dr.select(in_beam & in_grid, 1, 0)
+
+    return dr.while_loop((first, dr.zeros(u32, dr.width(idx))), condition, body)[1]
+
+
+_FRAME_NAMES = tuple(f"f{i}{j}" for i in range(3) for j in range(3))
+
+
+def packet_buffer(sweeps: int, bins: int) -> Any:
+    """A zeroed buffer for the packets of :func:`block_trace` (4 values per bin of ``sweeps``
+    histograms; :func:`~.config.histogram_buffer_length`: few lengths, few compilations), or
+    None beyond :data:`PACKET_BUFFER_LIMIT`."""
+    size = histogram_buffer_length(4 * sweeps * bins)
+    return None if size > PACKET_BUFFER_LIMIT else dr.zeros(mi.Float, size)
+
+
+PACKET_BUFFER_LIMIT = 2**23
+"""Largest packet buffer in float32 elements (32 MiB, times the Dr.Jit threads in
+``ReduceMode.Expand``); beyond it (bin grids over ~30 000 bins) the lane kernels trace the
+chunk."""
+
+
+def add_packets(packets: Any, k: Constants, sweeps: int, bins: int, re: Any, im: Any) -> None:
+    """Fold the packets of :func:`block_trace` into the histogram ``re + j im`` (order 0):
+    bin ``j`` of sweep ``s`` gets the lower half of packet ``(s, j)`` and the upper half of
+    packet ``(s, j - 1)`` (no deposit reaches past the last bin: ``lower < bins - 1``).
+
+    The packets sum in float32: a bin of ``N`` contributions carries a relative rounding of
+    ~6e-8 sqrt(N), far below the block kernel's other errors (docs/integrator.md
+    §"Performance")."""
+    u32, f64 = mi.UInt32, mi.Float64
+    idx = dr.arange(u32, sweeps * bins)
+    row = idx // k["bins"]
+    j = idx - row * k["bins"]
+    has_lower_neighbour = j > 0
+    upper = 4 * idx - 2  # (re, im) of the upper bin of packet (s, j - 1)
+    target = row * k["sweep_stride"] + j
+    for part, out in ((0, re), (1, im)):
+        value = (f64(dr.gather(mi.Float, packets, 4 * idx + part))
+                 + f64(dr.gather(mi.Float, packets, upper + part, has_lower_neighbour)))
+        dr.scatter_reduce(dr.ReduceOp.Add, out, value, target, mode=dr.ReduceMode.NoConflicts)
