@@ -26,6 +26,7 @@ from mitsar.raw.traced import histogram_to_raw_product, trace
 from mitsar.scene import load_scene, register_plugins
 
 mi = pytest.importorskip("mitsuba")
+dr = pytest.importorskip("drjit")
 
 RADAR = mitsar.Radar()
 LOOK = mitsar.Look(math.degrees(math.atan2(6.6, 4.5)))  # paper §4.1: boresight on [x, 8, 0]
@@ -129,6 +130,15 @@ def test_block_kernel_equals_the_lane_kernels_on_the_paper_room(case):
     blocks = trace(RADAR, track, LOOK, scene, **options)
     again = trace(RADAR, track, LOOK, scene, **options)
     np.testing.assert_array_equal(again["histogram"].values, blocks["histogram"].values)
+    # Integer packets: the block kernel runs on every core inside the deterministic default,
+    # and one thread gives the same bits (docs/integrator.md §"Determinism").
+    threads = dr.thread_count()
+    try:
+        dr.set_thread_count(1)
+        serial = trace(RADAR, track, LOOK, scene, **options)
+    finally:
+        dr.set_thread_count(threads)
+    np.testing.assert_array_equal(serial["histogram"].values, blocks["histogram"].values)
     count = lanes.attrs["traced_shadow_rays"]
     assert count > 100_000 and blocks.attrs["traced_launches"] > 4
     # Contributions: the same lanes up to the bin-grid edge (float32 vs float64 bin test).

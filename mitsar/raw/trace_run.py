@@ -10,7 +10,6 @@ sweeps.
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import os
 from collections.abc import Iterator, Sequence
@@ -34,6 +33,7 @@ from mitsar.model.geometry.trajectory import Trajectory
 from mitsar.model.radar import Radar
 from mitsar.model.signal import sweep_count
 from mitsar.plugins.integrators.radar import make_setup
+from mitsar.plugins.threads import deterministic_threads
 from mitsar.raw.physical_optics import FacetEchoes
 from mitsar.raw.product import (
     GEOMETRY_BYTES_PER_SWEEP,
@@ -183,8 +183,8 @@ class TraceRun:
         """(sweep indices, histograms (sweeps, orders, bins)) chunk by chunk: the tracer's,
         plus the physical-optics echoes of the same sweeps (one path for :func:`trace` and
         :func:`simulate_scene`). Deterministic runs trace on one Dr.Jit thread
-        (:func:`_dr_threads`)."""
-        with _dr_threads(1 if self.deterministic else None):
+        (:func:`mitsar.plugins.threads.deterministic_threads`)."""
+        with deterministic_threads(self.deterministic):
             yield from self._chunks(rvp, normalized, progress)
 
     def _chunks(self, rvp: bool, normalized: bool, progress: bool
@@ -339,31 +339,3 @@ def _radar_integrator(scene: Any, mi: Any) -> Any:
             _DEFAULT_INTEGRATORS.pop(next(iter(_DEFAULT_INTEGRATORS)))
         _DEFAULT_INTEGRATORS[id(scene)] = (scene, mi.load_dict({"type": "radar"}))
     return _DEFAULT_INTEGRATORS[id(scene)][1]
-
-
-# --------------------------------------------------------------------------------------------
-# Public API
-# --------------------------------------------------------------------------------------------
-
-
-@contextlib.contextmanager
-def _dr_threads(count: int | None) -> Iterator[None]:
-    """Dr.Jit's LLVM thread count inside the block (``None``: unchanged).
-
-    The deposit adds float64 contributions into shared histogram bins with atomic scatter-adds
-    (plugins/integrators/radar/deposit.py); on several threads their order, and so the last
-    bits of every bin, change from run to run (~1e-16 of the peak). On one thread the order is
-    the lanes' own: bit-identical raw data run after run (docs/integrator.md, determinism).
-    """
-    if count is None:
-        yield
-        return
-    # lazy: Dr.Jit is loaded once a variant is set (register_plugins), never on import
-    import drjit as dr
-
-    previous = dr.thread_count()
-    dr.set_thread_count(count)
-    try:
-        yield
-    finally:
-        dr.set_thread_count(previous)

@@ -42,6 +42,7 @@ from mitsar.model.radar import Radar
 from mitsar.plugins.integrators.radar.blocks import (
     add_packets,
     block_trace,
+    fixed_point_scale,
     frame_sines,
     packet_buffer,
 )
@@ -59,6 +60,7 @@ from mitsar.plugins.integrators.radar.constants import (
 from mitsar.plugins.integrators.radar.deposit import deposit
 from mitsar.plugins.integrators.radar.setup import TraceSetup
 from mitsar.plugins.ops import DRJIT_OPS
+from mitsar.plugins.threads import deterministic, order_independent
 
 SURFACE_OFFSET = 2e-5
 """Offset of a shadow ray's end above the surface, relative to ``1 + max|p|`` [-]."""
@@ -330,10 +332,12 @@ def backscatter_chunk(scene: Any, device: dict, geometry: dict, frames: NDArray,
     block = max(1, config.chunk_lanes // len(chosen))
     statistics["pairs"] += count * len(chosen)
     statistics["candidate_pairs"] += width_found * len(chosen)
-    packets = packet_buffer(len(chosen), k["bins"]) if blocked and reuse else None
+    exact = deterministic()  # integer packets: the same bits on any number of threads
+    packets = packet_buffer(len(chosen), k["bins"], exact) if blocked and reuse else None
     if packets is not None:
         steps, uniform = block_step_arrays(geometry, frames, chosen, blocks)
         sw.update(steps)
+        units = fixed_point_scale(device, k) if exact else None
     for m0 in range(0, width_found, block):
         width = min(block, width_found - m0)
         k["first"], k["width"] = m0, width
@@ -348,10 +352,11 @@ def backscatter_chunk(scene: Any, device: dict, geometry: dict, frames: NDArray,
                 visibility = probe(scene, device, sw, consts, found, width, k["blocks"])
                 statistics["visibility_rays"] += width * int(np.sum(np.minimum(block_sizes,
                                                                                2)))
-            dr.eval(visibility)
-            contributions = block_trace(device, sw, consts, found, visibility, packets,
-                                        uniform)
-            dr.eval(packets, contributions)
+            with order_independent():  # shadow rays and integer packets: any thread count
+                dr.eval(visibility)
+                contributions = block_trace(device, sw, consts, found, visibility, packets,
+                                            uniform, units)
+                dr.eval(packets, contributions)
             statistics["shadow_rays"] += int(dr.sum(contributions)[0])
             split = dr.compress(visibility == 1)
             statistics["visibility_split"] += dr.width(split)
@@ -373,7 +378,8 @@ def backscatter_chunk(scene: Any, device: dict, geometry: dict, frames: NDArray,
             trace(scene, device, sw, consts, found, lanes, re, im, visibility)
         dr.eval(re, im)
     if packets is not None:
-        add_packets(packets, Constants(k, BACKSCATTER_FLOATS), len(chosen), k["bins"], re, im)
+        add_packets(packets, Constants(k, BACKSCATTER_FLOATS), len(chosen), k["bins"], re, im,
+                    units)
         dr.eval(re, im)
 
 

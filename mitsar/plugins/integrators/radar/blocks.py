@@ -10,6 +10,7 @@ blocks whose ends disagree, stay in :mod:`.backscatter`).
 from __future__ import annotations
 
 import importlib
+import math
 from types import SimpleNamespace
 from typing import Any
 
@@ -25,10 +26,37 @@ from mitsar.plugins.integrators.radar.constants import Constants
 from mitsar.plugins.ops import DRJIT_OPS
 
 
-def _array4f() -> type:
-    """Four float32 per lane in the active variant's Dr.Jit namespace (e.g. ``drjit.llvm.ad``):
-    the packet of :func:`block_trace` (resolved at call time: a variant must be set)."""
-    return importlib.import_module(type(mi.Float()).__module__).Array4f
+def _packet_type(integer: bool) -> type:
+    """Four int64 (fixed point) or four float32 per lane in the active variant's Dr.Jit
+    namespace (e.g. ``drjit.llvm.ad``): the packet of :func:`block_trace` (resolved at call
+    time: a variant must be set)."""
+    namespace = importlib.import_module(type(mi.Float()).__module__)
+    return namespace.Array4i64 if integer else namespace.Array4f
+
+
+FIXED_POINT_BITS = 40
+"""Fixed-point units per amplitude bound (:func:`fixed_point_scale`): 2^40, so a bin may sum
+2^22 deposits at the bound before an int64 overflows."""
+
+
+def fixed_point_scale(sc: dict, k: dict) -> float:
+    """Fixed-point units per amplitude unit for the packets of :func:`block_trace`.
+
+    Integer sums do not depend on the order of their terms, so the packets sum to the same
+    bits on any number of threads (docs/integrator.md §"Determinism"). The amplitude of a
+    deposit is at most ``sqrt(max sigma0 table x max area share)`` (pattern <= 1) times, unless
+    normalised, the radar equation's ``radar_const / R^2`` at the nearest range a deposit can
+    have: a deposit lies in the bin grid, so its range is at least the grid's first range less
+    the Doppler shift of the apparent range (a fraction of a metre); half the first range,
+    and no less than 5 cm, bounds it. The bound maps to 2^:data:`FIXED_POINT_BITS` units: one
+    unit is ~1e-12 of the bound, below the float32 rounding of the deposits themselves.
+    """
+    sigma = float(dr.max(sc["tables"])[0]) * float(dr.max(sc["weight"])[0])
+    bound = math.sqrt(max(sigma, 1e-300))
+    if k["normalized"] <= 0.0:
+        nearest = max(0.5 * float(k["first_range"]), 0.05)
+        bound *= float(k["radar_const"]) / nearest**2
+    return 2.0**FIXED_POINT_BITS / bound
 
 
 def frame_sines(d: Any, get: Any, prefix: str) -> tuple[Any, Any, Any]:
@@ -38,7 +66,7 @@ def frame_sines(d: Any, get: Any, prefix: str) -> tuple[Any, Any, Any]:
 
 
 def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, packets: Any,
-                uniform: bool) -> Any:
+                uniform: bool, units: float | None) -> Any:
     """Trace the (candidate, block) pairs whose block ends agree: a symbolic loop over sweeps.
 
     Lanes are the ``width`` candidates ``first ..`` of the launch times the chunk's visibility
@@ -68,9 +96,13 @@ def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, p
       apparent_range`), split linearly;
     - phase: ``cycles_0 + deposit_cycles_change(d_j)`` (exact change of the quadratic phase),
       wrapped, ``sincos`` in float32;
-    - deposit: one packet of four float32 (re, im of the lower and of the upper bin) added at
+    - deposit: one packet of four values (re, im of the lower and of the upper bin) added at
       ``4 (s bins + lower)`` of ``packets``, non-atomically (``ReduceMode.Expand``: a copy per
-      thread); :func:`add_packets` folds them into the float64 histogram.
+      thread, summed afterwards): int64 in fixed-point units (``units`` per amplitude unit,
+      :func:`fixed_point_scale`) for deterministic traces, since integer sums do not depend
+      on which thread took which lanes; float32 with ``units=None`` (~17 % faster, the last
+      bits vary with the threads); :func:`add_packets` folds them into the float64
+      histogram.
 
     docs/integrator.md §"Performance" gives the measured error against the lane kernels.
 
@@ -79,7 +111,8 @@ def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, p
     mi.UInt32
         Per lane, the number of its sweeps in the beam and the bin grid (contributions).
     """
-    f64, f32, u32, i32, packet = mi.Float64, mi.Float, mi.UInt32, mi.Int32, _array4f()
+    f64, f32, u32, i32 = mi.Float64, mi.Float, mi.UInt32, mi.Int32
+    packet = _packet_type(units is not None)
     idx = dr.arange(u32, dr.width(visibility))
     block = idx // k["width"]
     local = idx - block * k["width"]
@@ -153,6 +186,11 @@ def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, p
     # Constants read once, outside the loop (gathers inside it are not hoisted past the
     # scatter into ``packets``).
     cull_az, cull_el, bins = k.f32("cull_az"), k.f32("cull_el"), k["bins"]
+    per_unit = dr.opaque(f32, 1.0 if units is None else units)  # per amplitude unit
+
+    def stored(value: Any) -> Any:
+        """A deposit as the packets hold it (fixed point, or float32 as it is)."""
+        return value if units is None else mi.Int64(dr.round(value))
 
     def condition(s: Any, count: Any) -> Any:
         return s < end
@@ -192,8 +230,9 @@ def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, p
         active = in_beam & in_grid & seen & lit
         cycles = cycles0 + hg.deposit_cycles_change(delta, r0f, radar32, rvp)
         sin_p, cos_p = dr.sincos((2.0 * dr.pi) * (cycles - dr.floor(cycles)))
-        v_re, v_im = amp * cos_p, amp * sin_p
-        value = packet(v_re * w_lo, v_im * w_lo, v_re * w_hi, v_im * w_hi)
+        v_re, v_im = (amp * per_unit) * cos_p, (amp * per_unit) * sin_p
+        value = packet(*(stored(v) for v in (v_re * w_lo, v_im * w_lo, v_re * w_hi,
+                                             v_im * w_hi)))
         index = s * bins + u32(dr.select(active, lower, 0))
         dr.scatter_reduce(dr.ReduceOp.Add, packets, value, index, active,
                           mode=dr.ReduceMode.Expand)
@@ -205,28 +244,32 @@ def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, p
 _FRAME_NAMES = tuple(f"f{i}{j}" for i in range(3) for j in range(3))
 
 
-def packet_buffer(sweeps: int, bins: int) -> Any:
+def packet_buffer(sweeps: int, bins: int, integer: bool) -> Any:
     """A zeroed buffer for the packets of :func:`block_trace` (4 values per bin of ``sweeps``
     histograms; :func:`~.config.histogram_buffer_length`: few lengths, few compilations), or
     None beyond :data:`PACKET_BUFFER_LIMIT`."""
     size = histogram_buffer_length(4 * sweeps * bins)
-    return None if size > PACKET_BUFFER_LIMIT else dr.zeros(mi.Float, size)
+    kind = mi.Int64 if integer else mi.Float
+    return None if size > PACKET_BUFFER_LIMIT else dr.zeros(kind, size)
 
 
 PACKET_BUFFER_LIMIT = 2**23
-"""Largest packet buffer in float32 elements (32 MiB, times the Dr.Jit threads in
+"""Largest packet buffer in elements (64 MiB of int64, times the Dr.Jit threads in
 ``ReduceMode.Expand``); beyond it (bin grids over ~30 000 bins) the lane kernels trace the
 chunk."""
 
 
-def add_packets(packets: Any, k: Constants, sweeps: int, bins: int, re: Any, im: Any) -> None:
+def add_packets(packets: Any, k: Constants, sweeps: int, bins: int, re: Any, im: Any,
+                units: float | None) -> None:
     """Fold the packets of :func:`block_trace` into the histogram ``re + j im`` (order 0):
     bin ``j`` of sweep ``s`` gets the lower half of packet ``(s, j)`` and the upper half of
     packet ``(s, j - 1)`` (no deposit reaches past the last bin: ``lower < bins - 1``).
 
-    The packets sum in float32: a bin of ``N`` contributions carries a relative rounding of
-    ~6e-8 sqrt(N), far below the block kernel's other errors (docs/integrator.md
-    §"Performance")."""
+    Integer packets (``units`` fixed-point units per amplitude unit) hold exact sums of the
+    deposits, each rounded to one unit (~1e-12 of the amplitude bound; the deposits themselves
+    are float32, a relative rounding of ~6e-8); float32 packets (``units=None``) a relative
+    rounding of ~6e-8 sqrt(N) for N deposits: both far below the block kernel's other errors
+    (docs/integrator.md §"Performance")."""
     u32, f64 = mi.UInt32, mi.Float64
     idx = dr.arange(u32, sweeps * bins)
     row = idx // k["bins"]
@@ -235,6 +278,8 @@ def add_packets(packets: Any, k: Constants, sweeps: int, bins: int, re: Any, im:
     upper = 4 * idx - 2  # (re, im) of the upper bin of packet (s, j - 1)
     target = row * k["sweep_stride"] + j
     for part, out in ((0, re), (1, im)):
-        value = (f64(dr.gather(mi.Float, packets, 4 * idx + part))
-                 + f64(dr.gather(mi.Float, packets, upper + part, has_lower_neighbour)))
+        kind = mi.Float if units is None else mi.Int64
+        total = (f64(dr.gather(kind, packets, 4 * idx + part))
+                 + f64(dr.gather(kind, packets, upper + part, has_lower_neighbour)))
+        value = total if units is None else total * (1.0 / units)
         dr.scatter_reduce(dr.ReduceOp.Add, out, value, target, mode=dr.ReduceMode.NoConflicts)
