@@ -344,15 +344,15 @@ def backscatter_chunk(scene: Any, device: dict, geometry: dict, frames: NDArray,
         consts = Constants(k, BACKSCATTER_FLOATS)
         statistics["launches"] += 1
         if packets is not None:
-            if shared:
-                visibility = shared_probe(scene, device, sw, consts, found, width,
-                                          len(probe_sweeps), k["blocks"])
-                statistics["visibility_rays"] += width * len(probe_sweeps)
-            else:
-                visibility = probe(scene, device, sw, consts, found, width, k["blocks"])
-                statistics["visibility_rays"] += width * int(np.sum(np.minimum(block_sizes,
-                                                                               2)))
             with order_independent():  # shadow rays and integer packets: any thread count
+                if shared:
+                    visibility = shared_probe(scene, device, sw, consts, found, width,
+                                              len(probe_sweeps), k["blocks"])
+                    statistics["visibility_rays"] += width * len(probe_sweeps)
+                else:
+                    visibility = probe(scene, device, sw, consts, found, width, k["blocks"])
+                    statistics["visibility_rays"] += width * int(
+                        np.sum(np.minimum(block_sizes, 2)))
                 dr.eval(visibility)
                 contributions = block_trace(device, sw, consts, found, visibility, packets,
                                             uniform, units)
@@ -378,9 +378,10 @@ def backscatter_chunk(scene: Any, device: dict, geometry: dict, frames: NDArray,
             trace(scene, device, sw, consts, found, lanes, re, im, visibility)
         dr.eval(re, im)
     if packets is not None:
-        add_packets(packets, Constants(k, BACKSCATTER_FLOATS), len(chosen), k["bins"], re, im,
-                    units)
-        dr.eval(re, im)
+        with order_independent():  # one add per bin (no conflicts): any thread count
+            add_packets(packets, Constants(k, BACKSCATTER_FLOATS), len(chosen), k["bins"], re,
+                        im, units)
+            dr.eval(re, im)
 
 
 def _split_lanes(sw: dict, k: Constants, found: Any, split: Any, lanes: Any) -> tuple[Any, Any,
