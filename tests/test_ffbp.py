@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import mitsar
+from mitsar.errors import MemoryBudgetError
 from mitsar.focus import ffbp as ffbp_module
 from mitsar.focus.ffbp import FFBP_DEFAULTS
 from mitsar.focus.ffbp_stages import Stage, node_frames, polar_node
@@ -194,3 +195,18 @@ def test_merging_stops_where_the_polar_grids_cannot_hold_the_range_curvature(mon
     assert bounded_stages < unbounded_stages
     assert bounded < default + 1.0
     assert unbounded > bounded + 6.0
+
+
+def test_polar_grids_too_large_are_refused_before_any_kernel(straight, monkeypatch):
+    """Absurd oversampling (found by hand, not by the fuzz campaign, which does not vary
+    ``algorithm_options``) used to end in Dr.Jit's own RuntimeError (an array of 1e12
+    entries); it is a ParameterError naming the options now, and a grid that fits Dr.Jit but
+    not the memory budget is a MemoryBudgetError (docs/reliability.md)."""
+    with pytest.raises(mitsar.ParameterError, match="angle_oversample"):
+        mitsar.focus(straight, algorithm="ffbp", grid=SLANT,
+                     algorithm_options={"angle_oversample": 1e9})
+    monkeypatch.setenv("MITSAR_MEMORY_LIMIT", "50M")
+    mitsar.focus(straight, algorithm="ffbp", grid=SLANT, azimuth_resolution=0.1)
+    with pytest.raises(MemoryBudgetError, match="oversampling"):
+        mitsar.focus(straight, algorithm="ffbp", grid=SLANT, azimuth_resolution=0.1,
+                     algorithm_options={"angle_oversample": 256.0})

@@ -75,6 +75,7 @@ from numpy.typing import NDArray
 from tqdm.auto import tqdm
 
 from mitsar.backend import require_llvm
+from mitsar.budget import require_memory
 from mitsar.errors import ParameterError
 from mitsar.focus.aperture import sweep_window, track_coordinates
 from mitsar.focus.backprojection import kernel_tables
@@ -197,6 +198,7 @@ def focus_ffbp(raw: xr.Dataset, layout_or_pixels: dict | NDArray, *, half_width:
                         rho_step, radar.wavelength,
                         settings["angle_oversample"] * settings["first_angle_oversample"],
                         _MARGIN * len(stages), window_support, LANE_NODES)
+    _check_nodes(stage, first=True)
     tables = kernel_tables(profile, frequency, radar, local_positions, velocities, bp.centroid,
                            kernel_half_width, kernel_window, motion_correction)
     first_stage(stage, node_frames(stage, normal, plane_point), tables, wavenumber)
@@ -208,6 +210,7 @@ def focus_ffbp(raw: xr.Dataset, layout_or_pixels: dict | NDArray, *, half_width:
         parent = _make_stage(groups, local_positions, velocities, sample, normal, plane_point,
                              rho_step, radar.wavelength, settings["angle_oversample"],
                              _MARGIN * (len(stages) - index), window_support)
+        _check_nodes(parent, first=False)
         merge_nodes(stage, parent, node_frames(parent, normal, plane_point),
                     _children_of(stage, parent), wavenumber, with_totals)
         stage = parent
@@ -408,6 +411,30 @@ def _make_stage(bounds: NDArray, positions: NDArray, velocities: NDArray, sample
     n_alpha = -(-n_alpha // alpha_multiple) * alpha_multiple
     return Stage(first, end, centre, axis, rho0, alpha0, rho_step, alpha_step,
                  (n_rho, n_alpha))
+
+
+NODE_BYTES = 56
+"""Peak bytes per polar-grid node: its (real, imag) float32 word and weight sum, the four-tap
+rows its parent reads (4 words), and the parent's own word and sum while both live."""
+
+
+def _check_nodes(stage: Stage, first: bool) -> None:
+    """Refuse polar grids that Dr.Jit cannot index or memory cannot hold, before any kernel.
+
+    A Dr.Jit array holds at most 2^32 - 1 entries, and the tap rows hold four per node.
+    """
+    nodes = len(stage.first) * stage.shape[0] * stage.shape[1]
+    keys = ("'angle_oversample', 'first_angle_oversample', 'range_oversample'" if first
+            else "'angle_oversample', 'range_oversample'")
+    parameter = f"algorithm_options[{keys}]"
+    if 4 * nodes >= 2**32:
+        raise ParameterError(
+            "focus", parameter, "polar grids of fewer than 2^30 nodes a stage (lower the "
+            "oversampling, or focus a smaller grid)",
+            f"{nodes:.3g} nodes ({len(stage.first)} sub-apertures of {stage.shape[0]} ranges x "
+            f"{stage.shape[1]} angles)")
+    require_memory("focus", parameter, float(nodes) * NODE_BYTES,
+                   "lower the FFBP oversampling or focus a smaller grid")
 
 
 def _spacing(positions: NDArray) -> float:
