@@ -562,6 +562,15 @@ def _api_specs() -> list[tuple[str, Callable[[Any], Any], str, set[str]]]:
         ("focus", lambda v: mitsar.focus(_products()[0], azimuth_resolution=v),
          "azimuth_resolution", {"none", "fraction"}),
         ("focus", lambda v: mitsar.focus(_products()[0], grid=v), "grid", {"none"}),
+    ]
+    for name, valid in (("factor", set()), ("first_subaperture", set()),
+                        ("final_subapertures", set()), ("lookup_upsample", set()),
+                        ("angle_oversample", {"fraction"}), ("range_oversample", {"fraction"}),
+                        ("first_angle_oversample", {"fraction"})):
+        specs.append(("focus(ffbp)", lambda v, name=name: mitsar.focus(
+            _products()[0], algorithm="ffbp", azimuth_resolution=0.1,
+            algorithm_options={name: v}), name, valid))
+    specs += [
         ("measure_impulse_response", lambda v: mitsar.measure_impulse_response(
             _products()[1], v), "target", set()),
         ("measure_impulse_response", lambda v: mitsar.measure_impulse_response(
@@ -597,11 +606,12 @@ def _api_cases(rng: random.Random, count: int, fast: bool) -> list[Case]:
         where, call, parameter, valid = rng.choice(specs)
         label = rng.choice(sorted(BAD))
         invalid = label not in valid
-        if fast and (not invalid or where in ("focus", "measure_impulse_response",
-                                              "range_compress") and label in ("none",)):
+        if fast and (not invalid or where in ("focus", "focus(ffbp)",
+                                              "measure_impulse_response", "range_compress")
+                     and label in ("none",)):
             continue
         value = BAD[label]
-        heavy = where in ("focus", "measure_impulse_response", "range_compress",
+        heavy = where in ("focus", "focus(ffbp)", "measure_impulse_response", "range_compress",
                           "simulate_point_targets")
 
         def action(folder: Path, call: Callable = call, value: Any = value) -> Any:

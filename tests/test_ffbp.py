@@ -202,9 +202,15 @@ def test_polar_grids_too_large_are_refused_before_any_kernel(straight, monkeypat
     ``algorithm_options``) used to end in Dr.Jit's own RuntimeError (an array of 1e12
     entries); it is a ParameterError naming the options now, and a grid that fits Dr.Jit but
     not the memory budget is a MemoryBudgetError (docs/reliability.md)."""
-    with pytest.raises(mitsar.ParameterError, match="angle_oversample"):
+    with pytest.raises(mitsar.ParameterError, match="from 1 to 1000"):
         mitsar.focus(straight, algorithm="ffbp", grid=SLANT,
                      algorithm_options={"angle_oversample": 1e9})
+    with pytest.raises(mitsar.ParameterError, match="2\\^30 nodes"):
+        mitsar.focus(straight, algorithm="ffbp", grid=SLANT,
+                     algorithm_options={"angle_oversample": 1000, "first_angle_oversample": 1000})
+    with pytest.raises(mitsar.ParameterError, match="final_subapertures"):  # a bool is no count
+        mitsar.focus(straight, algorithm="ffbp", grid=SLANT,
+                     algorithm_options={"final_subapertures": True})
     monkeypatch.setenv("MITSAR_MEMORY_LIMIT", "50M")
     mitsar.focus(straight, algorithm="ffbp", grid=SLANT, azimuth_resolution=0.1)
     with pytest.raises(MemoryBudgetError, match="oversampling"):

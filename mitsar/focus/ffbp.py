@@ -100,6 +100,10 @@ FFBP_DEFAULTS: dict[str, float | str] = {
     "range_oversample": 4.0, "first_angle_oversample": 2.0, "lookup_upsample": 16}
 """Default FFBP options (see the module docstring)."""
 
+MAX_OVERSAMPLE = 1000.0
+"""Largest oversampling option accepted (the error stops falling near 8, docs/focusing.md
+§ FFBP); beyond it the products of the options could overflow the grid sizes."""
+
 _MARGIN = 3
 """Polar-grid range nodes added beyond the pixels on every side, per remaining stage.
 
@@ -255,14 +259,15 @@ def _options(options: dict | None) -> dict:
     for key in ("factor", "first_subaperture", "final_subapertures", "lookup_upsample"):
         value = settings[key]
         low = 2 if key in ("factor", "first_subaperture") else 1
-        if not (isinstance(value, int | np.integer) and value >= low):
+        if isinstance(value, bool) or not (isinstance(value, int | np.integer) and value >= low):
             raise ParameterError("focus", f"algorithm_options['{key}']", f"an integer >= {low}",
                                  value)
     for key in ("angle_oversample", "range_oversample", "first_angle_oversample"):
         value = settings[key]
-        if not (isinstance(value, int | float) and math.isfinite(value) and value >= 1):
-            raise ParameterError("focus", f"algorithm_options['{key}']", "a number >= 1",
-                                 value)
+        if (isinstance(value, bool) or not isinstance(value, int | float)
+                or not 1 <= value <= MAX_OVERSAMPLE):
+            raise ParameterError("focus", f"algorithm_options['{key}']",
+                                 f"a number from 1 to {MAX_OVERSAMPLE:g}", value)
         settings[key] = float(value)
     return settings
 
