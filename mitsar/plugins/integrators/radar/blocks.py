@@ -157,6 +157,10 @@ def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, p
         velocity = mi.Vector3f(*(f32(dr.gather(f64, sw[f"v{a}"], first)) for a in "xyz"))
         node = f32(span) * 0.5
         nodes = [(o0f - j * step, fixed.__getitem__) for j in (0.0, node, f32(span))]
+        # o_j = o_0 - j s: the direction sines (unnormalised) and o.v are linear in j.
+        sines0 = frame_sines(o0f, fixed.__getitem__, "f")
+        sines_step = frame_sines(step, fixed.__getitem__, "f")
+        along0, along_step = dr.dot(o0f, velocity), dr.dot(step, velocity)
     else:
         node = f32(span // 2)
 
@@ -210,12 +214,12 @@ def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, p
         j = f32(s - first)
         if uniform:
             change = j * (j * quad - lin)  # R_j^2 - R_0^2 [m^2]
-            o = o0f - j * step
             r = dr.sqrt(r0f * r0f + change)
             inv = 1.0 / (r * (r + r0f))  # one division for d_j and dR/dt
             delta = change * r * inv
-            rdot = -dr.dot(o, velocity) * (r + r0f) * inv
-            frame = fixed.__getitem__
+            rdot = -dr.fma(-j, along_step, along0) * (r + r0f) * inv
+            s_az, s_el, s_b = (dr.fma(-j, d, s0) for s0, d in zip(sines0, sines_step,
+                                                                  strict=True))
         else:
             o64 = [qi - dr.gather(f64, sw[f"p{a}"], s) for qi, a in zip(q, "xyz", strict=True)]
             r64 = dr.sqrt(o64[0] * o64[0] + o64[1] * o64[1] + o64[2] * o64[2])
@@ -227,8 +231,8 @@ def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, p
             def frame(name: str) -> Any:
                 return dr.gather(f32, sw[name], s)
 
+            s_az, s_el, s_b = frame_sines(o, frame, "f")
         # Beam test on the unnormalised direction: |u| < cull <=> |f.o| < cull R.
-        s_az, s_el, s_b = frame_sines(o, frame, "f")
         in_beam = (s_b > 0.0) & (dr.abs(s_az) < cull_az * r) & (dr.abs(s_el) < cull_el * r)
         # A turning frame moves the pattern too fast for the quadratic: exact per sweep.
         amp = a0 + j * (d1 + (j - node) * d2) if uniform else amplitude(o, frame)
