@@ -327,7 +327,9 @@ def backscatter_chunk(scene: Any, device: dict, geometry: dict, frames: NDArray,
                 motion, blocks, float(config.visibility_feature))
             sw.update(shared_probe_arrays(probe_sweeps, probe_first, probe_end))
     k["blocks"] = int(blocks[-1]) + 1
-    found = candidates(device, Constants(k, BACKSCATTER_FLOATS), count)
+    with order_independent():  # dr.compress returns the indices in increasing order
+        found = candidates(device, Constants(k, BACKSCATTER_FLOATS), count)
+        dr.eval(found)
     width_found = dr.width(found)
     block = max(1, config.chunk_lanes // len(chosen))
     statistics["pairs"] += count * len(chosen)
