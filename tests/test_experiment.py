@@ -7,6 +7,7 @@ import json
 import re
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from mitsar.errors import MitsarError, ParameterError
@@ -18,6 +19,7 @@ from mitsar.experiment.loading import (
     load_grid,
 )
 from mitsar.experiment.options import Experiment
+from mitsar.experiment.runs import run_simulation
 
 BASE = {
     "trajectory": {"kind": "linear", "start": [14.9, 1.4, 4.5], "velocity": [0.5, 0.0, 0.0],
@@ -266,3 +268,27 @@ def test_docs_examples_are_valid():
     import tomllib
     for block in complete:
         experiment_from_dict(tomllib.loads(block), source="docs/experiments.md")
+
+
+def test_tracer_options_reach_the_integrator(tmp_path):
+    """``[simulation] visibility_feature`` and ``block_kernel`` (docs/experiments.md) are the
+    tracer's: the raw product's integrator record holds them, and the lane kernels with a
+    shadow ray per sweep give the block kernel's raw data of the canned point target to
+    -90 dB (the block kernel's float32 advance, docs/integrator.md §"Performance")."""
+    toml = ('scene = "point_target"\n' + TOML).replace("duration = 0.4", "duration = 0.1")
+    path = tmp_path / "exp.toml"
+    path.write_text(toml.replace("[simulation]\n", "[simulation]\nvisibility_feature = 0.0\n"
+                                 "block_kernel = false\n"))
+    lanes = run_simulation(load_experiment(path))
+    record = json.loads(lanes.attrs["integrator"])
+    assert record["visibility_feature"] == 0.0 and record["block_kernel"] is False
+    path.write_text(toml)
+    blocks = run_simulation(load_experiment(path))
+    assert json.loads(blocks.attrs["integrator"])["block_kernel"] is True
+    error = np.sum(np.abs(blocks["raw"].values - lanes["raw"].values) ** 2) / np.sum(
+        np.abs(lanes["raw"].values) ** 2)
+    assert 0 < error < 1e-9
+    bad = toml.replace("[simulation]\n", "[simulation]\nvisibility_feature = -1.0\n")
+    path.write_text(bad)
+    with pytest.raises(ParameterError, match="visibility_feature"):
+        load_experiment(path)

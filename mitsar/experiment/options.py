@@ -77,6 +77,10 @@ class SimulationOptions:
     physical_optics : bool or tuple of str
         Physical-optics returns of planar facets (docs/physical_optics.md): all meshes with a
         radar material (``True``) or the shapes with these ids.
+    visibility_feature, block_kernel
+        The tracer's shadow-ray reuse width [m] (0: a ray per sweep) and its block kernel
+        (docs/integrator.md §"Visibility reuse", §"Performance"); ``None``: the scene
+        integrator's.
     """
 
     seed: int = 0
@@ -92,12 +96,16 @@ class SimulationOptions:
     plane_normal: tuple[float, float, float] | None = None
     slab_width: float | None = None
     physical_optics: bool | tuple[str, ...] = False
+    visibility_feature: float | None = None
+    block_kernel: bool | None = None
 
     def multipath(self) -> dict[str, Any]:
-        """The multipath keyword arguments of :func:`mitsar.raw.traced.simulate_scene`."""
+        """The tracer's keyword arguments of :func:`mitsar.raw.traced.simulate_scene`
+        (multipath, shadow-ray reuse, block kernel)."""
         return {"max_depth": self.max_depth, "rays": self.rays, "ray_cover": self.ray_cover,
                 "ghosts": self.ghosts, "plane_normal": self.plane_normal,
-                "slab_width": self.slab_width}
+                "slab_width": self.slab_width, "visibility_feature": self.visibility_feature,
+                "block_kernel": self.block_kernel}
 
 
 @dataclass(frozen=True)

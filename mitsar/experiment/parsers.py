@@ -277,7 +277,10 @@ def parse_simulation(t: Table | None) -> SimulationOptions:
                                 ghosts=t.boolean("ghosts", None),
                                 plane_normal=t.vector("plane_normal", 3, None),
                                 slab_width=t.number("slab_width", None, unit="m", gt=0),
-                                physical_optics=_physical_optics(t))
+                                physical_optics=_physical_optics(t),
+                                visibility_feature=t.number("visibility_feature", None,
+                                                            unit="m", ge=0),
+                                block_kernel=t.boolean("block_kernel", None))
     t.finish()
     return options
 

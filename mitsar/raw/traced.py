@@ -156,10 +156,11 @@ def trace(radar: Radar, trajectory: Trajectory, look: Look, scene: Any, *,
         rays stop on these shapes (no path is counted twice). Monostatic, 3-D only; moving
         shapes carry their facets.
     deterministic : bool
-        Trace on one Dr.Jit thread (default), so that the float64 atomic adds of the deposit
-        run in one order and the same inputs give bit-identical data run after run. ``False``
-        uses every core (1.1-1.8x faster on two cores; bins then differ by ~1e-16 of the
-        peak between runs; docs/integrator.md, determinism).
+        Bit-identical data run after run and on any thread count (default): the float64
+        atomic adds of the lane kernels, multipath and physical optics on one Dr.Jit thread,
+        the block kernel on every core with integer sums. ``False`` runs everything on every
+        core (the block kernel with float32 sums, ~15 % faster; bins then differ in their
+        last bits between runs; docs/integrator.md §"Determinism").
     block_kernel : bool, optional
         Direct backscatter of static 3-D scenes with shared shadow rays by the block kernel,
         a lane per (scatterer, block of sweeps) (default, XML ``block_kernel``), or ``False``:
@@ -173,9 +174,8 @@ def trace(radar: Radar, trajectory: Trajectory, look: Look, scene: Any, *,
     """
     run = TraceRun("trace", radar, trajectory, look, scene, density, seed, sweeps, chunk_lanes,
                bins_per_cell, beam_cull, scene_params,
-               {**_multipath_options(max_depth, rays, ray_cover, capture, ghosts, plane_normal,
-                                     slab_width), "visibility_feature": visibility_feature,
-                "block_kernel": block_kernel},
+               _multipath_options(max_depth, rays, ray_cover, capture, ghosts, plane_normal,
+                                  slab_width, visibility_feature, block_kernel),
                receiver_offset, receiver_look, backscatter, navigation, motion, physical_optics,
                deterministic=deterministic)
     parts, indices = [], []
@@ -187,9 +187,12 @@ def trace(radar: Radar, trajectory: Trajectory, look: Look, scene: Any, *,
 
 
 def _multipath_options(max_depth: Any, rays: Any, ray_cover: Any, capture: Any, ghosts: Any,
-                       plane_normal: Any, slab_width: Any) -> dict[str, Any]:
+                       plane_normal: Any, slab_width: Any, visibility_feature: Any = None,
+                       block_kernel: Any = None) -> dict[str, Any]:
+    """The integrator options a call overrides (None: the scene integrator's)."""
     return {"max_depth": max_depth, "rays": rays, "ray_cover": ray_cover, "capture": capture,
-            "ghosts": ghosts, "plane_normal": plane_normal, "slab_width": slab_width}
+            "ghosts": ghosts, "plane_normal": plane_normal, "slab_width": slab_width,
+            "visibility_feature": visibility_feature, "block_kernel": block_kernel}
 
 
 def trace_paths(radar: Radar, trajectory: Trajectory, look: Look, scene: Any, *,
@@ -387,7 +390,9 @@ def simulate_scene(radar: Radar, trajectory: Trajectory, look: Look, scene: Any,
                    navigation: Trajectory | NavigationErrors | None = None,
                    noise: bool = False,
                    physical_optics: bool | Sequence[str] = False,
-                   motion: dict | None = None, deterministic: bool = True) -> xr.Dataset:
+                   motion: dict | None = None, deterministic: bool = True,
+                   visibility_feature: float | None = None,
+                   block_kernel: bool | None = None) -> xr.Dataset:
     """Raw data of a Mitsuba scene: trace, synthesise (streaming), add analytic targets.
 
     Histograms are turned into raw sweeps chunk by chunk, so memory stays bounded by the chunk
@@ -419,7 +424,9 @@ def simulate_scene(radar: Radar, trajectory: Trajectory, look: Look, scene: Any,
     motion : dict, optional
         Moving shapes, as :func:`trace`.
     deterministic : bool
-        One Dr.Jit thread for bit-identical runs (default), as :func:`trace`.
+        Bit-identical runs (default), as :func:`trace`.
+    visibility_feature, block_kernel : optional
+        As :func:`trace` (shadow rays shared across sweeps; the block kernel).
 
     Returns
     -------
@@ -429,7 +436,8 @@ def simulate_scene(radar: Radar, trajectory: Trajectory, look: Look, scene: Any,
     run = TraceRun("simulate_scene", radar, trajectory, look, scene, density, seed, sweeps,
                chunk_lanes, bins_per_cell, beam_cull, scene_params,
                _multipath_options(max_depth, rays, ray_cover, capture, ghosts, plane_normal,
-                                  slab_width), navigation=navigation, motion=motion,
+                                  slab_width, visibility_feature, block_kernel),
+               navigation=navigation, motion=motion,
                physical_optics=physical_optics, deterministic=deterministic)
     _order_mask("simulate_scene", orders, np.arange(1))  # validate early
     check_noise("simulate_scene", radar, noise, normalized)
