@@ -14,6 +14,7 @@ the memory, for loops whose cost is time rather than space.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import re
@@ -73,12 +74,10 @@ def set_memory_limit(limit: str | int | float | None) -> None:
 
 def _machine_available() -> int:
     """Memory the machine can give now [bytes]: MemAvailable, else physical memory."""
-    try:
+    with contextlib.suppress(OSError, ValueError, IndexError):  # no /proc: physical memory
         for line in Path("/proc/meminfo").read_text().splitlines():
             if line.startswith("MemAvailable:"):
                 return int(line.split()[1]) * 1024
-    except (OSError, ValueError, IndexError):
-        pass
     try:
         return int(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
     except (ValueError, OSError, AttributeError):
