@@ -73,7 +73,9 @@ def test_paper_room_equals_a_shadow_ray_per_sweep():
     shared = trace(RADAR, track, LOOK, scene, **options)
     assert per_sweep.attrs["traced_visibility_rays"] == 0
     contributions = shared.attrs["traced_shadow_rays"]
-    assert contributions == per_sweep.attrs["traced_shadow_rays"] > 100_000
+    # The same lanes up to the bin grid's edge (the block kernel tests the bin in float32).
+    assert per_sweep.attrs["traced_shadow_rays"] > 100_000
+    assert abs(contributions - per_sweep.attrs["traced_shadow_rays"]) <= 1e-5 * contributions
     assert shared.attrs["traced_launches"] > 4  # several launches per chunk
     # 2 mm per sweep and 3 cm: blocks of 15-16 sweeps, 2 probe rays each instead of 15-16.
     assert shared.attrs["traced_visibility_rays"] < contributions / 5

@@ -40,6 +40,7 @@ from mitsar.model.geometry.visibility import (
 )
 from mitsar.model.radar import Radar
 from mitsar.plugins.integrators.radar.blocks import (
+    MAX_CHUNK_SWEEPS,
     add_packets,
     block_trace,
     fixed_point_scale,
@@ -51,8 +52,8 @@ from mitsar.plugins.integrators.radar.constants import (
     BACKSCATTER_FLOATS,
     Constants,
     backscatter_sweep_arrays,
-    block_step_arrays,
     chunk_bounds,
+    chunk_step_arrays,
     lane_pairs,
     shared_probe_arrays,
     visibility_block_arrays,
@@ -313,7 +314,8 @@ def backscatter_chunk(scene: Any, device: dict, geometry: dict, frames: NDArray,
     # static 3D scatterer sets with shared shadow rays; moving sets, the 2D mode and a ray per
     # sweep keep the lane kernels. Its probes share the rays at block boundaries unless the
     # caller caps the blocks (e.g. at scene changes).
-    blocked = config.block_kernel and device["static"] and not sw["planar"]
+    blocked = (config.block_kernel and device["static"] and not sw["planar"]
+               and len(chosen) <= MAX_CHUNK_SWEEPS)
     shared = blocked and visibility_block is None
     blocks = visibility_blocks(motion, float(config.visibility_feature),
                                len(chosen) if visibility_block is None
@@ -337,7 +339,7 @@ def backscatter_chunk(scene: Any, device: dict, geometry: dict, frames: NDArray,
     exact = deterministic()  # integer packets: the same bits on any number of threads
     packets = packet_buffer(len(chosen), k["bins"], exact) if blocked and reuse else None
     if packets is not None:
-        steps, uniform = block_step_arrays(geometry, frames, chosen, blocks)
+        steps, uniform = chunk_step_arrays(geometry, frames, chosen)
         sw.update(steps)
         units = fixed_point_scale(device, k) if exact else None
     for m0 in range(0, width_found, block):
@@ -356,8 +358,8 @@ def backscatter_chunk(scene: Any, device: dict, geometry: dict, frames: NDArray,
                     statistics["visibility_rays"] += width * int(
                         np.sum(np.minimum(block_sizes, 2)))
                 dr.eval(visibility)
-                contributions = block_trace(device, sw, consts, found, visibility, packets,
-                                            uniform, units)
+                contributions = block_trace(device, sw, consts, found, visibility, width,
+                                            packets, uniform, units)
                 dr.eval(packets, contributions)
             statistics["shadow_rays"] += int(dr.sum(contributions)[0])
             split = dr.compress(visibility == 1)

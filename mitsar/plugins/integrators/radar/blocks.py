@@ -16,6 +16,7 @@ from typing import Any
 
 import drjit as dr
 import mitsuba as mi
+import numpy as np
 
 from mitsar.model import histogram as hg
 from mitsar.model.doublelobe import TABLE_SIZE, interp_theta_table
@@ -57,8 +58,9 @@ def fixed_point_scale(sc: dict, k: dict) -> float:
     and no less than 5 cm, bounds it. The bound maps to 2^:data:`FIXED_POINT_BITS` units: one
     unit is ~1e-12 of the bound, below the float32 rounding of the deposits themselves.
     """
-    sigma = float(dr.max(sc["tables"])[0]) * float(dr.max(sc["weight"])[0])
-    bound = math.sqrt(max(sigma, 1e-300))
+    if "sigma_bound" not in sc:  # a property of the scatterer set: reduced once
+        sc["sigma_bound"] = float(dr.max(sc["tables"])[0]) * float(dr.max(sc["weight"])[0])
+    bound = math.sqrt(max(sc["sigma_bound"], 1e-300))
     if k["normalized"] <= 0.0:
         nearest = max(0.5 * float(k["first_range"]), 0.05)
         bound *= float(k["radar_const"]) / nearest**2
@@ -71,66 +73,87 @@ def frame_sines(d: Any, get: Any, prefix: str) -> tuple[Any, Any, Any]:
                  + d.z * get(f"{prefix}2{j}") for j in range(3))
 
 
-def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, packets: Any,
-                uniform: bool, units: float | None) -> Any:
-    """Trace the (candidate, block) pairs whose block ends agree: a symbolic loop over sweeps.
+AMPLITUDE_NODES = tuple(math.cos(math.pi * (2 * i + 1) / 10) for i in range(5))
+"""Chebyshev nodes of the amplitude's quartic over a chunk, on [-1, 1]."""
 
-    Lanes are the ``width`` candidates ``first ..`` of the launch times the chunk's visibility
-    blocks, candidate-fastest: the lanes of a SIMD packet share their block, hence their trip
-    count and the block's antenna data (measured 8 % faster than block-fastest). ``visibility``
-    holds the probe codes (:func:`~.backscatter.probe` layout): pairs seen at both ends of their
-    block (code 2) deposit every sweep in the beam without a shadow ray (docs/integrator.md
-    §"Visibility reuse"); pairs hidden at both ends (0) are counted but deposit nothing; pairs
-    whose ends disagree (1) run no sweep here (:func:`~.backscatter.split_trace`).
+_MONOMIAL = np.linalg.inv(np.vander(AMPLITUDE_NODES, 5, increasing=True)).tolist()
+"""``coefficient[p] = sum_i _MONOMIAL[p][i] a_i``: the quartic in ``t`` through the values
+``a_i`` at :data:`AMPLITUDE_NODES` (inverse Vandermonde matrix, condition ~12)."""
 
-    A lane gathers its scatterer once and evaluates in float64, at the block's first sweep, the
-    range ``R_0``, the wrapped deposit phase ``f_c tau_0 - K tau_0^2/2 + phi`` and the bin
-    position (docs/design.md §5.5). Per sweep ``j`` it evaluates in float32 what
-    :func:`~.backscatter.trace` evaluates per (scatterer, sweep) lane of a static 3-D set:
+MAX_CHUNK_SWEEPS = 64
+"""Sweeps of a chunk the block kernel traces: one bit each in a lane's UInt64 sweep masks."""
 
-    - geometry: with ``uniform`` (every block of the chunk moves the antenna by a step ``s``
-      per sweep with one frame and velocity, :func:`~.constants.block_step_arrays`),
-      ``R_j^2 - R_0^2 = j (j |s|^2 - 2 o_0.s)`` and ``d_j = R_j - R_0`` from it, no gather;
+
+def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, width: int,
+                packets: Any, uniform: bool, units: float | None) -> Any:
+    """Trace every sweep of the chunk for ``width`` candidates: a lane per candidate, a symbolic
+    loop over sweeps.
+
+    Lanes are the candidates ``first ..`` of the launch; all run the chunk's ``k["sweeps"]``
+    (<= :data:`MAX_CHUNK_SWEEPS`) sweeps, so the lanes of a SIMD packet share their trip count
+    and every sweep datum. ``visibility`` holds the probe codes of the (candidate, block) pairs
+    (:func:`~.backscatter.probe` layout): a lane first ORs its blocks' sweep bits
+    (``sw["block_bits"]``) into two UInt64 masks, the sweeps it traces (blocks seen or hidden at
+    both ends, codes 2 and 0; code-1 blocks are traced sweep by sweep by
+    :func:`~.backscatter.split_trace`) and the sweeps it deposits (code 2, without a shadow
+    ray: docs/integrator.md §"Visibility reuse").
+
+    A lane gathers its scatterer once and evaluates in float64, at the chunk's middle sweep
+    ``a`` (the anchor), the range ``R_a``, the wrapped deposit phase ``f_c tau_a - K tau_a^2/2 +
+    phi`` and the bin position (docs/design.md §5.5). Per sweep ``j`` (counted from the anchor,
+    |j| <= 32) it evaluates in float32 what :func:`~.backscatter.trace` evaluates per
+    (scatterer, sweep) lane of a static 3-D set:
+
+    - geometry: with ``uniform`` (the antenna moves by one step ``s`` per sweep over the chunk
+      with one frame and velocity, :func:`~.constants.chunk_step_arrays`),
+      ``R_j^2 - R_a^2 = j (j |s|^2 - 2 o_a.s)`` and ``d_j = R_j - R_a`` from it, no gather;
       otherwise the antenna position, velocity and frame are gathered per sweep and ``R_j``
       taken in float64;
     - beam test on the direction sines, as :func:`~.backscatter.cull`;
     - amplitude (two-way pattern, σ⁰ table, radar equation ``1/R^2``): with ``uniform``, the
-      quadratic in ``j`` through its exact values at the block's first, middle and last sweep
-      (it is smooth: the direction moves by less than ``visibility_feature / R`` over a
-      block); otherwise exact per sweep (a turning frame moves the pattern faster);
-    - bin: ``x_j = x_0 + (d_j + (f_c/K) dR/dt) / dr`` (:func:`mitsar.model.histogram.
+      quartic in ``j`` through its exact values at five Chebyshev nodes of the chunk
+      (:data:`AMPLITUDE_NODES`; it is smooth: docs/integrator.md §"Performance" states the
+      error); otherwise exact per sweep (a turning frame moves the pattern faster);
+    - bin: ``x_j = x_a + (d_j + (f_c/K) dR/dt) / dr`` (:func:`mitsar.model.histogram.
       apparent_range`), split linearly;
-    - phase: ``cycles_0 + deposit_cycles_change(d_j)`` (exact change of the quadratic phase),
+    - phase: ``cycles_a + deposit_cycles_change(d_j)`` (exact change of the quadratic phase),
       wrapped, ``sincos`` in float32;
     - deposit: one packet of four values (re, im of the lower and of the upper bin) added at
       ``4 (s bins + lower)`` of ``packets``, non-atomically (``ReduceMode.Expand``: a copy per
       thread, summed afterwards): int64 in fixed-point units (``units`` per amplitude unit,
       :func:`fixed_point_scale`) for deterministic traces, since integer sums do not depend
-      on which thread took which lanes; float32 with ``units=None`` (~17 % faster, the last
-      bits vary with the threads); :func:`add_packets` folds them into the float64
-      histogram.
+      on which thread took which lanes; float32 with ``units=None`` (the last bits vary with
+      the threads); :func:`add_packets` folds them into the float64 histogram.
 
     docs/integrator.md §"Performance" gives the measured error against the lane kernels.
 
     Returns
     -------
     mi.UInt32
-        Per lane, the number of its sweeps in the beam and the bin grid (contributions).
+        Per lane, the number of its traced sweeps in the beam and the bin grid (contributions).
     """
-    f64, f32, u32, i32 = mi.Float64, mi.Float, mi.UInt32, mi.Int32
+    f64, f32, u32, i32, u64 = mi.Float64, mi.Float, mi.UInt32, mi.Int32, mi.UInt64
     packet = _packet_type(units is not None)
-    idx = dr.arange(u32, dr.width(visibility))
-    block = idx // k["width"]
-    local = idx - block * k["width"]
+    local = dr.arange(u32, width)
     m = dr.gather(u32, found, local + k["first"])
-    code = dr.gather(u32, visibility, local * k["blocks"] + block)
-    first = dr.gather(u32, sw["block_first"], block)
-    span = dr.gather(u32, sw["block_last"], block) - first  # the block's sweeps, minus one
-    end = dr.select(code == 1, first, first + span + 1)  # code 1: no sweep here
-    seen = code == 2
-    # Once per lane, float64: the scatterer and its geometry at the block's first sweep.
+
+    # 1. The lane's sweep masks from its blocks' visibility codes.
+    def mask_body(b: Any, traced: Any, seen: Any) -> tuple[Any, Any, Any]:
+        code = dr.gather(u32, visibility, local * k["blocks"] + b)
+        bits = dr.gather(u64, sw["block_bits"], b)
+        return (b + 1, traced | dr.select(code != 1, bits, 0),
+                seen | dr.select(code == 2, bits, 0))
+
+    _, traced, seen = dr.while_loop(
+        (dr.zeros(u32, width), dr.zeros(u64, width), dr.zeros(u64, width)),
+        lambda b, traced, seen: b < k["blocks"], mask_body)
+    sweeps = k["sweeps"]
+    end = dr.select(traced == 0, 0, sweeps)  # nothing traced here: no sweep
+    anchor = sweeps // 2
+
+    # 2. Once per lane, float64: the scatterer and its geometry at the anchor sweep.
     q = [dr.gather(f64, sc[f"p{a}"], m) for a in "xyz"]
-    o0 = [qi - dr.gather(f64, sw[f"p{a}"], first) for qi, a in zip(q, "xyz", strict=True)]
+    o0 = [qi - dr.gather(f64, sw[f"p{a}"], anchor) for qi, a in zip(q, "xyz", strict=True)]
     r0 = dr.sqrt(o0[0] * o0[0] + o0[1] * o0[1] + o0[2] * o0[2])
     cycles0 = (hg.deposit_cycles(r0 * (2.0 / SPEED_OF_LIGHT), k, k["rvp"])
                + dr.gather(f64, sc["phase"], m))
@@ -143,34 +166,11 @@ def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, p
     weight = dr.gather(f32, sc["weight"], m)
     offset = f32(dr.gather(u32, sc["row"], m) * TABLE_SIZE)
     r0f = f32(r0)
-    o0f = mi.Vector3f(*(f32(c) for c in o0))
     radar32 = SimpleNamespace(carrier_frequency=k.f32("fc"), chirp_rate=k.f32("chirp_rate"))
     rvp, inv_step = k.f32("rvp"), k.f32("inv_step")
     doppler = k.f32("fc") / k.f32("chirp_rate")  # apparent range per unit range rate [s]
     scale = dr.select(k["normalized"] > 0.0, 0.0, k.f32("radar_const"))
     last_lower = i32(k["last_lower"])
-    if uniform:
-        step = mi.Vector3f(*(dr.gather(f32, sw[f"step{a}"], block) for a in "xyz"))
-        lin = f32(2.0 * (o0[0] * f64(step.x) + o0[1] * f64(step.y) + o0[2] * f64(step.z)))
-        quad = dr.squared_norm(step)
-        fixed = {name: dr.gather(f32, sw[name], first) for name in _FRAME_NAMES}
-        velocity = mi.Vector3f(*(f32(dr.gather(f64, sw[f"v{a}"], first)) for a in "xyz"))
-        node = f32(span) * 0.5
-        nodes = [(o0f - j * step, fixed.__getitem__) for j in (0.0, node, f32(span))]
-        # o_j = o_0 - j s: the direction sines (unnormalised) and o.v are linear in j.
-        sines0 = frame_sines(o0f, fixed.__getitem__, "f")
-        sines_step = frame_sines(step, fixed.__getitem__, "f")
-        along0, along_step = dr.dot(o0f, velocity), dr.dot(step, velocity)
-    else:
-        node = f32(span // 2)
-
-        def at(s: Any) -> tuple[Any, Any]:
-            o = mi.Vector3f(*(f32(qi - dr.gather(f64, sw[f"p{a}"], s))
-                              for qi, a in zip(q, "xyz", strict=True)))
-            return o, lambda name: dr.gather(f32, sw[name], s)
-
-        nodes = [at(first), at(first + span // 2), at(first + span)]
-
     beta_az, beta_el = k.f32("beta_az"), k.f32("beta_el")
 
     def amplitude(o: Any, frame: Any) -> Any:
@@ -184,15 +184,29 @@ def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, p
                                    offset=offset) * weight
         return one_way * dr.sqrt(sigma) * dr.select(scale > 0.0, scale * inv * inv, 1.0)
 
-    # The amplitude, smooth over a block, as the quadratic through the block's first, middle
-    # and last sweep (Newton form; docs/integrator.md §"Performance" states its error); the
-    # gather path (not uniform) uses the nodes only to know whether anything is lit.
-    a0, a1, a2 = (amplitude(o, frame) for o, frame in nodes)
-    whole = f32(span)
-    d1 = dr.select(node > 0.0, (a1 - a0) / dr.maximum(node, 1e-30), 0.0)
-    d2 = dr.select(whole > node, ((a2 - a1) / dr.maximum(whole - node, 1e-30) - d1)
-                   / dr.maximum(whole, 1e-30), 0.0)
-    lit = (a0 > 0.0) | (a1 > 0.0) | (a2 > 0.0)
+    if uniform:
+        o0f = mi.Vector3f(*(f32(c) for c in o0))
+        step = mi.Vector3f(*(dr.gather(f32, sw[f"step{a}"], 0) for a in "xyz"))
+        lin = f32(2.0 * (o0[0] * f64(step.x) + o0[1] * f64(step.y) + o0[2] * f64(step.z)))
+        quad = dr.squared_norm(step)
+        fixed = {name: dr.gather(f32, sw[name], anchor) for name in _FRAME_NAMES}
+        velocity = mi.Vector3f(*(f32(dr.gather(f64, sw[f"v{a}"], anchor)) for a in "xyz"))
+        # o_j = o_a - j s: the direction sines (unnormalised) and o.v are linear in j.
+        sines0 = frame_sines(o0f, fixed.__getitem__, "f")
+        sines_step = frame_sines(step, fixed.__getitem__, "f")
+        along0, along_step = dr.dot(o0f, velocity), dr.dot(step, velocity)
+        # The amplitude as a quartic in t = (j - centre) / half over the chunk's sweeps
+        # [-anchor, sweeps - 1 - anchor], through its values at the Chebyshev nodes.
+        centre = f32(sweeps - 1) * 0.5 - f32(anchor)
+        half = dr.maximum(f32(sweeps - 1) * 0.5, 0.5)
+        values = [amplitude(o0f - (centre + half * t) * step, fixed.__getitem__)
+                  for t in AMPLITUDE_NODES]
+        coefficients = [sum(row[i] * values[i] for i in range(5)) for row in _MONOMIAL]
+        lit = (values[0] > 0.0) | (values[1] > 0.0) | (values[2] > 0.0) | (values[3] > 0.0) \
+            | (values[4] > 0.0)
+        inv_half = 1.0 / half
+    else:
+        lit = mi.Bool(True)
     # Constants read once, outside the loop (gathers inside it are not hoisted past the
     # scatter into ``packets``).
     cull_az, cull_el, bins = k.f32("cull_az"), k.f32("cull_el"), k["bins"]
@@ -207,19 +221,20 @@ def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, p
         shifted = mi.Float64(value) + _ROUNDING_MAGIC
         return dr.reinterpret_array(mi.Int64, shifted) - _MAGIC_BITS
 
-    def condition(s: Any, count: Any) -> Any:
-        return s < end
-
     def body(s: Any, count: Any) -> tuple[Any, Any]:
-        j = f32(s - first)
+        j = f32(i32(s) - i32(anchor))
         if uniform:
-            change = j * (j * quad - lin)  # R_j^2 - R_0^2 [m^2]
+            change = j * (j * quad - lin)  # R_j^2 - R_a^2 [m^2]
             r = dr.sqrt(r0f * r0f + change)
             inv = 1.0 / (r * (r + r0f))  # one division for d_j and dR/dt
             delta = change * r * inv
             rdot = -dr.fma(-j, along_step, along0) * (r + r0f) * inv
             s_az, s_el, s_b = (dr.fma(-j, d, s0) for s0, d in zip(sines0, sines_step,
                                                                   strict=True))
+            t = (j - centre) * inv_half
+            amp = coefficients[4]
+            for c in reversed(coefficients[:4]):
+                amp = dr.fma(amp, t, c)
         else:
             o64 = [qi - dr.gather(f64, sw[f"p{a}"], s) for qi, a in zip(q, "xyz", strict=True)]
             r64 = dr.sqrt(o64[0] * o64[0] + o64[1] * o64[1] + o64[2] * o64[2])
@@ -232,17 +247,18 @@ def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, p
                 return dr.gather(f32, sw[name], s)
 
             s_az, s_el, s_b = frame_sines(o, frame, "f")
+            amp = amplitude(o, frame)  # a turning frame moves the pattern: exact per sweep
         # Beam test on the unnormalised direction: |u| < cull <=> |f.o| < cull R.
         in_beam = (s_b > 0.0) & (dr.abs(s_az) < cull_az * r) & (dr.abs(s_el) < cull_el * r)
-        # A turning frame moves the pattern too fast for the quadratic: exact per sweep.
-        amp = a0 + j * (d1 + (j - node) * d2) if uniform else amplitude(o, frame)
         # Bin: apparent range R_j + (f_c/K) dR/dt (hg.apparent_range) relative to bin0, with
         # dR/dt = -(o.v)/R (o points from the antenna to the static scatterer).
         x = fraction0 + (delta + doppler * rdot) * inv_step
         lower, w_lo, w_hi = hg.split_weights(x, dr.floor)
         lower = bin0 + i32(lower)
         in_grid = (lower >= 0) & (lower < last_lower)
-        active = in_beam & in_grid & seen & lit
+        bit = u64(s)
+        counted = in_beam & in_grid & (((traced >> bit) & 1) != 0)
+        active = counted & (((seen >> bit) & 1) != 0) & lit
         cycles = cycles0 + hg.deposit_cycles_change(delta, r0f, radar32, rvp)
         sin_p, cos_p = dr.sincos((2.0 * dr.pi) * (cycles - dr.floor(cycles)))
         v_re, v_im = (amp * per_unit) * cos_p, (amp * per_unit) * sin_p
@@ -251,9 +267,10 @@ def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, p
         index = s * bins + u32(dr.select(active, lower, 0))
         dr.scatter_reduce(dr.ReduceOp.Add, packets, value, index, active,
                           mode=dr.ReduceMode.Expand)
-        return s + 1, count + dr.select(in_beam & in_grid, 1, 0)
+        return s + 1, count + dr.select(counted, 1, 0)
 
-    return dr.while_loop((first, dr.zeros(u32, dr.width(idx))), condition, body)[1]
+    return dr.while_loop((dr.zeros(u32, width), dr.zeros(u32, width)),
+                         lambda s, count: s < end, body)[1]
 
 
 _FRAME_NAMES = tuple(f"f{i}{j}" for i in range(3) for j in range(3))

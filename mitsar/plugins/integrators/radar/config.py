@@ -50,9 +50,11 @@ HISTOGRAM_CHUNK_ELEMENTS = 2**22
 """Bound on sweeps x orders x bins of the histogram buffer of one launch (2 x 32 MiB)."""
 
 def histogram_buffer_length(size: int) -> int:
-    """Length of a histogram buffer of ``size`` elements: the next power of two, at least 2^16
-    (the length is a literal of the kernels: a few lengths, a few compilations)."""
-    return max(2**16, 1 << (max(int(size), 1) - 1).bit_length())
+    """Length of a histogram buffer of ``size`` elements: the next power of two or 1.5 times a
+    power of two, at least 2^16 (the length is a literal of the kernels: two lengths per
+    octave, few compilations; at most a third of the buffer is unused)."""
+    power = 1 << (max(int(size), 1) - 1).bit_length()
+    return max(2**16, power * 3 // 4 if power * 3 // 4 >= size else power)
 
 
 AZIMUTH_CELL = 0.10

@@ -180,7 +180,9 @@ def backscatter_sweep_arrays(geometry: dict, frames: NDArray, radar: Radar, chos
 def visibility_block_arrays(blocks: NDArray) -> dict:
     """Device arrays of the visibility blocks of a chunk (docs/integrator.md §"Visibility
     reuse"): ``block_of`` (block of each sweep of the chunk), ``block_first`` and
-    ``block_last`` (first and last sweep of each block, indices into the chunk).
+    ``block_last`` (first and last sweep of each block, indices into the chunk), and for
+    chunks of at most 64 sweeps ``block_bits`` (UInt64: bit ``s`` set for each sweep ``s`` of
+    the block, the sweep masks of :func:`~.blocks.block_trace`).
 
     Parameters
     ----------
@@ -196,6 +198,10 @@ def visibility_block_arrays(blocks: NDArray) -> dict:
     _upload(sw, "block_of", mi.UInt32, blocks[_padded(index)].astype(np.uint32))
     _upload(sw, "block_first", mi.UInt32, _padded(first).astype(np.uint32))
     _upload(sw, "block_last", mi.UInt32, _padded(last).astype(np.uint32))
+    if len(blocks) <= 64:
+        bits = [sum(1 << int(s) for s in range(f, e + 1)) for f, e in zip(first, last,
+                                                                          strict=True)]
+        _upload(sw, "block_bits", mi.UInt64, _padded(np.array(bits, dtype=np.uint64)))
     dr.make_opaque(*sw.values())
     return sw
 
@@ -213,43 +219,39 @@ def shared_probe_arrays(sweeps: NDArray, first: NDArray, end: NDArray) -> dict:
 
 
 UNIFORM_TOLERANCES = (1e-9, 1e-7, 1e-6)
-"""Largest deviation of a block from uniform motion that :func:`block_step_arrays` accepts:
-antenna position from ``p_first + j s`` [m] (a phase error below 4e-6 rad at 94 GHz), antenna
-frame entries [-] and velocity [m/s] from their values at the block's first sweep."""
+"""Largest deviation of a chunk from uniform motion that :func:`chunk_step_arrays` accepts:
+antenna position from ``p_a + (s - a) step`` [m] (a phase error below 4e-6 rad at 94 GHz),
+antenna frame entries [-] and velocity [m/s] from their values at the anchor sweep ``a``."""
 
 
-def block_step_arrays(geometry: dict, frames: NDArray, chosen: NDArray, blocks: NDArray
-                      ) -> tuple[dict, bool]:
-    """Antenna step per sweep of each visibility block, and whether the chunk is uniform.
+def chunk_step_arrays(geometry: dict, frames: NDArray, chosen: NDArray) -> tuple[dict, bool]:
+    """Antenna step per sweep over a chunk, and whether the chunk moves uniformly.
 
-    The block kernel (:func:`~.backscatter.block_trace`) advances a block's sweeps from its
-    first one by ``p_j = p_first + j s``, ``s = (p_last - p_first) / (last - first)``, with the
-    frame and velocity of the first sweep, when every block of the chunk satisfies that to
-    :data:`UNIFORM_TOLERANCES` (a straight track at constant speed and attitude, as the paper
-    flies); otherwise it gathers them per sweep.
+    The block kernel (:func:`~.blocks.block_trace`) advances every sweep ``s`` of a chunk from
+    its middle sweep ``a = len // 2`` by ``p_s = p_a + (s - a) step``, ``step = (p_last -
+    p_first) / (len - 1)``, with the frame and velocity of the anchor, when the chunk satisfies
+    that to :data:`UNIFORM_TOLERANCES` (a straight track at constant speed and attitude, as the
+    paper flies); otherwise it gathers them per sweep.
 
     Returns
     -------
     dict
-        ``stepx``, ``stepy``, ``stepz``: Float32 per block [m].
+        ``stepx``, ``stepy``, ``stepz``: Float32 (padded) [m].
     bool
-        True if every block is uniform.
+        True if the chunk is uniform.
     """
-    blocks = np.asarray(blocks, dtype=np.int64)
-    count = int(blocks[-1]) + 1
-    first = np.searchsorted(blocks, np.arange(count), side="left")
-    last = np.searchsorted(blocks, np.arange(count), side="right") - 1
     pos, vel = geometry["position"][chosen], geometry["velocity"][chosen]
     rot = frames[chosen]
-    step = (pos[last] - pos[first]) / np.maximum(last - first, 1)[:, None]
-    j = np.arange(len(chosen)) - first[blocks]
+    anchor = len(chosen) // 2
+    step = (pos[-1] - pos[0]) / max(len(chosen) - 1, 1)
+    j = np.arange(len(chosen)) - anchor
     tol_p, tol_f, tol_v = UNIFORM_TOLERANCES
-    uniform = bool(np.abs(pos - pos[first[blocks]] - j[:, None] * step[blocks]).max() <= tol_p
-                   and np.abs(rot - rot[first[blocks]]).max() <= tol_f
-                   and np.abs(vel - vel[first[blocks]]).max() <= tol_v)
+    uniform = bool(np.abs(pos - pos[anchor] - j[:, None] * step).max() <= tol_p
+                   and np.abs(rot - rot[anchor]).max() <= tol_f
+                   and np.abs(vel - vel[anchor]).max() <= tol_v)
     sw: dict = {}
     for i, axis in enumerate("xyz"):
-        _upload(sw, "step" + axis, mi.Float, _padded(step[:, i]))
+        _upload(sw, "step" + axis, mi.Float, _padded(step[i:i + 1]))
     dr.make_opaque(*sw.values())
     return sw, uniform
 
