@@ -24,7 +24,7 @@ from mitsar.model.geometry.antenna import field_pattern
 from mitsar.model.radar import SPEED_OF_LIGHT
 from mitsar.plugins.integrators.radar.config import histogram_buffer_length
 from mitsar.plugins.integrators.radar.constants import Constants
-from mitsar.plugins.ops import DRJIT_OPS
+from mitsar.plugins.ops import DRJIT_OPS, sincos_turns
 
 
 def _packet_type(integer: bool) -> type:
@@ -117,7 +117,7 @@ def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, w
     - bin: ``x_j = x_a + (d_j + (f_c/K) dR/dt) / dr`` (:func:`mitsar.model.histogram.
       apparent_range`), split linearly;
     - phase: ``cycles_a + deposit_cycles_change(d_j)`` (exact change of the quadratic phase),
-      wrapped, ``sincos`` in float32;
+      :func:`~mitsar.plugins.ops.sincos_turns` in float32;
     - deposit: one packet of four values (re, im of the lower and of the upper bin) added at
       ``4 (s bins + lower)`` of ``packets``, non-atomically (``ReduceMode.Expand``: a copy per
       thread, summed afterwards): int64 in fixed-point units (``units`` per amplitude unit,
@@ -260,7 +260,7 @@ def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, w
         counted = in_beam & in_grid & (((traced >> bit) & 1) != 0)
         active = counted & (((seen >> bit) & 1) != 0) & lit
         cycles = cycles0 + hg.deposit_cycles_change(delta, r0f, radar32, rvp)
-        sin_p, cos_p = dr.sincos((2.0 * dr.pi) * (cycles - dr.floor(cycles)))
+        sin_p, cos_p = sincos_turns(cycles)
         v_re, v_im = (amp * per_unit) * cos_p, (amp * per_unit) * sin_p
         value = packet(*(stored(v) for v in (v_re * w_lo, v_im * w_lo, v_re * w_hi,
                                              v_im * w_hi)))
