@@ -59,14 +59,14 @@ def test_visibility_feature_is_validated():
 # --- the paper's room ---------------------------------------------------------------------------
 
 def test_paper_room_equals_a_shadow_ray_per_sweep():
-    """The canned control volume (paper Table 3 room) at reduced size: 80 sweeps (two chunks of
-    64 + 16, so blocks restart at a chunk boundary), 60 scatterers per m² (about 65 000 instead
+    """The canned control volume (paper Table 3 room) at reduced size: 150 sweeps (two chunks
+    of 128 + 22, so blocks restart at a chunk boundary), 60 scatterers per m² (about 65 000 instead
     of 0.97 M) and small launches (candidates split over several launches, so the probe codes
     must line up with the lanes of each launch). The room is convex and empty, so every
     scatterer in the beam is visible at every sweep: what can go wrong is the bookkeeping (a
     lane reading another pair's code drops or adds contributions), which the size reduction
     does not touch. Requirement: raw data within -50 dB of a ray per sweep."""
-    track = mitsar.Trajectory.linear([14.8, 1.4, 4.5], [SPEED, 0.0, 0.0], 80.5 / RADAR.prf)
+    track = mitsar.Trajectory.linear([14.8, 1.4, 4.5], [SPEED, 0.0, 0.0], 150.5 / RADAR.prf)
     scene = load_scene("control_volume")
     options = dict(density=60.0, seed=4, chunk_lanes=2**15)
     per_sweep = trace(RADAR, track, LOOK, scene, visibility_feature=0.0, **options)

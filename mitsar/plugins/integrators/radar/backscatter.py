@@ -42,6 +42,7 @@ from mitsar.model.radar import Radar
 from mitsar.plugins.integrators.radar.blocks import (
     MAX_CHUNK_SWEEPS,
     add_packets,
+    amplitude_polynomial_holds,
     block_trace,
     fixed_point_scale,
     frame_sines,
@@ -77,8 +78,9 @@ def _moved(p: Any, sc: dict, name: str, m: Any, t: Any) -> Any:
     return p + v * t
 
 
-def candidates(sc: dict, k: Constants, count: int) -> Any:
-    """Scatterers that may lie in the beam of some sweep of the chunk (``dr.compress``).
+def candidates(sc: dict, k: Constants, count: int) -> tuple[Any, Any]:
+    """Scatterers that may lie in the beam of some sweep of the chunk (``dr.compress``), and
+    the smallest of their ranges from the antenna at the middle sweep [m] (Float32, width 1).
 
     The beam test of :func:`cull` at the chunk's middle sweep, widened by how much a direction
     sine can change over the chunk: ``|u_s - u_mid| <= |d_s - d_mid| + |e_s - e_mid|`` with
@@ -95,7 +97,7 @@ def candidates(sc: dict, k: Constants, count: int) -> Any:
     margin = 2.0 * k.f32("mid_disp") / r + k.f32("mid_turn") + 1e-4
     active = ((cos_b > -margin) & (dr.abs(u_az) < k.f32("cull_az") + margin)
               & (dr.abs(u_el) < k.f32("cull_el") + margin)) | (r <= 2.0 * k.f32("mid_disp"))
-    return dr.compress(active)
+    return dr.compress(active), dr.min(dr.select(active, r, dr.inf))
 
 
 def cull(sc: dict, sw: dict, k: Constants, found: Any, lanes: int) -> Any:
@@ -330,8 +332,8 @@ def backscatter_chunk(scene: Any, device: dict, geometry: dict, frames: NDArray,
             sw.update(shared_probe_arrays(probe_sweeps, probe_first, probe_end))
     k["blocks"] = int(blocks[-1]) + 1
     with order_independent():  # dr.compress returns the indices in increasing order
-        found = candidates(device, Constants(k, BACKSCATTER_FLOATS), count)
-        dr.eval(found)
+        found, nearest = candidates(device, Constants(k, BACKSCATTER_FLOATS), count)
+        dr.eval(found, nearest)
     width_found = dr.width(found)
     block = max(1, config.chunk_lanes // len(chosen))
     statistics["pairs"] += count * len(chosen)
@@ -341,6 +343,10 @@ def backscatter_chunk(scene: Any, device: dict, geometry: dict, frames: NDArray,
     if packets is not None:
         steps, uniform = chunk_step_arrays(geometry, frames, chosen)
         sw.update(steps)
+        positions = geometry["position"][chosen]
+        half_span = float(np.linalg.norm(positions - positions[len(chosen) // 2], axis=1).max())
+        polynomial = uniform and amplitude_polynomial_holds(half_span, float(nearest[0]),
+                                                            radar)
         units = fixed_point_scale(device, k) if exact else None
     for m0 in range(0, width_found, block):
         width = min(block, width_found - m0)
@@ -359,14 +365,14 @@ def backscatter_chunk(scene: Any, device: dict, geometry: dict, frames: NDArray,
                         np.sum(np.minimum(block_sizes, 2)))
                 dr.eval(visibility)
                 contributions = block_trace(device, sw, consts, found, visibility, width,
-                                            packets, uniform, units)
+                                            packets, uniform, polynomial, units)
                 dr.eval(packets, contributions)
+            # Every contribution is counted by the block kernel, the split pairs' too.
             statistics["shadow_rays"] += int(dr.sum(contributions)[0])
             split = dr.compress(visibility == 1)
             statistics["visibility_split"] += dr.width(split)
             if dr.width(split):
-                statistics["shadow_rays"] += split_trace(scene, device, sw, consts, found,
-                                                         split, len(chosen), re, im)
+                split_trace(scene, device, sw, consts, found, split, len(chosen), re, im)
             dr.eval(re, im)
             continue
         lanes = cull(device, sw, consts, found, len(chosen) * width)

@@ -73,30 +73,88 @@ def frame_sines(d: Any, get: Any, prefix: str) -> tuple[Any, Any, Any]:
                  + d.z * get(f"{prefix}2{j}") for j in range(3))
 
 
-AMPLITUDE_NODES = tuple(math.cos(math.pi * (2 * i + 1) / 10) for i in range(5))
-"""Chebyshev nodes of the amplitude's quartic over a chunk, on [-1, 1]."""
+AMPLITUDE_DEGREE = 6
+"""Degree of the amplitude's polynomial in the sweep index over a chunk."""
 
-_MONOMIAL = np.linalg.inv(np.vander(AMPLITUDE_NODES, 5, increasing=True)).tolist()
-"""``coefficient[p] = sum_i _MONOMIAL[p][i] a_i``: the quartic in ``t`` through the values
-``a_i`` at :data:`AMPLITUDE_NODES` (inverse Vandermonde matrix, condition ~12)."""
+AMPLITUDE_NODES = tuple(math.cos(math.pi * (2 * i + 1) / (2 * AMPLITUDE_DEGREE + 2))
+                        for i in range(AMPLITUDE_DEGREE + 1))
+"""Chebyshev nodes of the amplitude's polynomial over a chunk, on [-1, 1]."""
 
-MAX_CHUNK_SWEEPS = 64
-"""Sweeps of a chunk the block kernel traces: one bit each in a lane's UInt64 sweep masks."""
+_MONOMIAL = np.linalg.inv(np.vander(AMPLITUDE_NODES, AMPLITUDE_DEGREE + 1,
+                                    increasing=True)).tolist()
+"""``coefficient[p] = sum_i _MONOMIAL[p][i] a_i``: the polynomial in ``t`` through the values
+``a_i`` at :data:`AMPLITUDE_NODES` (inverse Vandermonde matrix)."""
+
+AMPLITUDE_SPAN_LIMIT = 0.4
+"""Largest antenna displacement from the anchor sweep over a chunk, in beamwidths times the
+nearest candidate's range, for the amplitude polynomial: there the degree-6 Chebyshev
+interpolant holds the two-way field pattern sinc²(u/β) to -86 dB of its peak at any position
+in the beam cull (tests/test_block_kernel.py); nearer chunks evaluate the amplitude exactly per
+sweep (docs/integrator.md §"Performance")."""
+
+MAX_CHUNK_SWEEPS = 128
+"""Sweeps of a chunk the block kernel traces: one bit each in a lane's two UInt64 words of
+sweep masks."""
+
+
+def amplitude_polynomial_holds(half_span: float, nearest: float, radar: Any) -> bool:
+    """Whether the amplitude polynomial serves a chunk (:data:`AMPLITUDE_SPAN_LIMIT`).
+
+    Parameters
+    ----------
+    half_span : float
+        Largest antenna displacement from the anchor sweep over the chunk [m].
+    nearest : float
+        Smallest range of a candidate scatterer from the antenna at the anchor sweep [m].
+    radar : Radar
+        Its beamwidths [rad] (the narrower counts).
+    """
+    beamwidth = min(radar.azimuth_beamwidth, radar.elevation_beamwidth)
+    closest = nearest - half_span  # no candidate comes nearer during the chunk
+    return closest > 0.0 and half_span <= AMPLITUDE_SPAN_LIMIT * beamwidth * closest
+
+
+def beam_sweeps(sines: tuple, steps: tuple, reach_az: Any, reach_el: Any) -> tuple[Any, Any]:
+    """The interval ``(lo, hi)`` of sweep offsets ``j`` where a scatterer can be in the beam.
+
+    The unnormalised direction sines along the antenna axes are linear in ``j`` on a uniform
+    chunk, ``s(j) = s_0 - j d`` (:func:`block_trace`); the beam test needs ``s_b > 0``,
+    ``|s_az| < reach_az`` and ``|s_el| < reach_el`` (the cull's beamwidths times a bound on the
+    range over the chunk). Each is an interval (or half-line) of ``j``; their intersection is
+    returned, empty when ``lo > hi``.
+    """
+    big = 1e30
+    lo, hi = -big, big
+    for s0, d, reach in zip(sines[:2], steps[:2], (reach_az, reach_el), strict=True):
+        flat = dr.abs(d) < 1e-30
+        a = (s0 - reach) / dr.select(flat, 1.0, d)
+        b = (s0 + reach) / dr.select(flat, 1.0, d)
+        inside = dr.abs(s0) < reach
+        lo = dr.maximum(lo, dr.select(flat, dr.select(inside, -big, big), dr.minimum(a, b)))
+        hi = dr.minimum(hi, dr.select(flat, dr.select(inside, big, -big), dr.maximum(a, b)))
+    s0, d = sines[2], steps[2]  # boresight component: s0 - j d > 0
+    flat = dr.abs(d) < 1e-30
+    edge = s0 / dr.select(flat, 1.0, d)
+    lo = dr.maximum(lo, dr.select(flat | (d > 0.0), dr.select(flat & (s0 <= 0.0), big, -big),
+                                  edge))
+    hi = dr.minimum(hi, dr.select(flat | (d < 0.0), dr.select(flat & (s0 <= 0.0), -big, big),
+                                  edge))
+    return lo, hi
 
 
 def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, width: int,
-                packets: Any, uniform: bool, units: float | None) -> Any:
+                packets: Any, uniform: bool, polynomial: bool, units: float | None) -> Any:
     """Trace every sweep of the chunk for ``width`` candidates: a lane per candidate, a symbolic
     loop over sweeps.
 
     Lanes are the candidates ``first ..`` of the launch; all run the chunk's ``k["sweeps"]``
     (<= :data:`MAX_CHUNK_SWEEPS`) sweeps, so the lanes of a SIMD packet share their trip count
     and every sweep datum. ``visibility`` holds the probe codes of the (candidate, block) pairs
-    (:func:`~.backscatter.probe` layout): a lane first ORs its blocks' sweep bits
-    (``sw["block_bits"]``) into two UInt64 masks, the sweeps it traces (blocks seen or hidden at
-    both ends, codes 2 and 0; code-1 blocks are traced sweep by sweep by
-    :func:`~.backscatter.split_trace`) and the sweeps it deposits (code 2, without a shadow
-    ray: docs/integrator.md §"Visibility reuse").
+    (:func:`~.backscatter.probe` layout): a lane first ORs the sweep bits of its blocks seen at
+    both ends (code 2; ``sw["block_bits0/1"]``) into a two-word mask of the sweeps it deposits
+    without a shadow ray (docs/integrator.md §"Visibility reuse"); blocks hidden at both ends
+    (0) deposit nothing, and those whose ends disagree (1) are traced sweep by sweep by
+    :func:`~.backscatter.split_trace`.
 
     A lane gathers its scatterer once and evaluates in float64, at the chunk's middle sweep
     ``a`` (the anchor), the range ``R_a``, the wrapped deposit phase ``f_c tau_a - K tau_a^2/2 +
@@ -110,10 +168,11 @@ def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, w
       otherwise the antenna position, velocity and frame are gathered per sweep and ``R_j``
       taken in float64;
     - beam test on the direction sines, as :func:`~.backscatter.cull`;
-    - amplitude (two-way pattern, σ⁰ table, radar equation ``1/R^2``): with ``uniform``, the
-      quartic in ``j`` through its exact values at five Chebyshev nodes of the chunk
-      (:data:`AMPLITUDE_NODES`; it is smooth: docs/integrator.md §"Performance" states the
-      error); otherwise exact per sweep (a turning frame moves the pattern faster);
+    - amplitude (two-way pattern, σ⁰ table, radar equation ``1/R^2``): with ``polynomial``
+      (a uniform chunk far enough from every candidate, :func:`amplitude_polynomial_holds`),
+      the polynomial of degree :data:`AMPLITUDE_DEGREE` in ``j`` through its exact values at
+      Chebyshev nodes of the chunk (:data:`AMPLITUDE_NODES`; docs/integrator.md
+      §"Performance" states the error); otherwise exact per sweep;
     - bin: ``x_j = x_a + (d_j + (f_c/K) dR/dt) / dr`` (:func:`mitsar.model.histogram.
       apparent_range`), split linearly;
     - phase: ``cycles_a + deposit_cycles_change(d_j)`` (exact change of the quadratic phase),
@@ -130,25 +189,24 @@ def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, w
     Returns
     -------
     mi.UInt32
-        Per lane, the number of its traced sweeps in the beam and the bin grid (contributions).
+        Per lane, the number of its sweeps in the beam and the bin grid (contributions,
+        whatever their visibility).
     """
     f64, f32, u32, i32, u64 = mi.Float64, mi.Float, mi.UInt32, mi.Int32, mi.UInt64
     packet = _packet_type(units is not None)
     local = dr.arange(u32, width)
     m = dr.gather(u32, found, local + k["first"])
 
-    # 1. The lane's sweep masks from its blocks' visibility codes.
-    def mask_body(b: Any, traced: Any, seen: Any) -> tuple[Any, Any, Any]:
-        code = dr.gather(u32, visibility, local * k["blocks"] + b)
-        bits = dr.gather(u64, sw["block_bits"], b)
-        return (b + 1, traced | dr.select(code != 1, bits, 0),
-                seen | dr.select(code == 2, bits, 0))
+    # 1. The lane's deposit mask (two words) from its blocks' visibility codes.
+    def mask_body(b: Any, seen0: Any, seen1: Any) -> tuple[Any, Any, Any]:
+        seen = dr.gather(u32, visibility, local * k["blocks"] + b) == 2
+        return (b + 1, seen0 | dr.select(seen, dr.gather(u64, sw["block_bits0"], b), 0),
+                seen1 | dr.select(seen, dr.gather(u64, sw["block_bits1"], b), 0))
 
-    _, traced, seen = dr.while_loop(
+    _, seen0, seen1 = dr.while_loop(
         (dr.zeros(u32, width), dr.zeros(u64, width), dr.zeros(u64, width)),
-        lambda b, traced, seen: b < k["blocks"], mask_body)
+        lambda b, seen0, seen1: b < k["blocks"], mask_body)
     sweeps = k["sweeps"]
-    end = dr.select(traced == 0, 0, sweeps)  # nothing traced here: no sweep
     anchor = sweeps // 2
 
     # 2. Once per lane, float64: the scatterer and its geometry at the anchor sweep.
@@ -195,21 +253,32 @@ def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, w
         sines0 = frame_sines(o0f, fixed.__getitem__, "f")
         sines_step = frame_sines(step, fixed.__getitem__, "f")
         along0, along_step = dr.dot(o0f, velocity), dr.dot(step, velocity)
-        # The amplitude as a quartic in t = (j - centre) / half over the chunk's sweeps
+    if polynomial:
+        # The amplitude as a polynomial in t = (j - centre) / half over the chunk's sweeps
         # [-anchor, sweeps - 1 - anchor], through its values at the Chebyshev nodes.
         centre = f32(sweeps - 1) * 0.5 - f32(anchor)
         half = dr.maximum(f32(sweeps - 1) * 0.5, 0.5)
         values = [amplitude(o0f - (centre + half * t) * step, fixed.__getitem__)
                   for t in AMPLITUDE_NODES]
-        coefficients = [sum(row[i] * values[i] for i in range(5)) for row in _MONOMIAL]
-        lit = (values[0] > 0.0) | (values[1] > 0.0) | (values[2] > 0.0) | (values[3] > 0.0) \
-            | (values[4] > 0.0)
+        coefficients = [sum(row[i] * values[i] for i in range(len(values)))
+                        for row in _MONOMIAL]
+        lit = values[0] > 0.0
+        for value in values[1:]:
+            lit |= value > 0.0
         inv_half = 1.0 / half
     else:
         lit = mi.Bool(True)
     # Constants read once, outside the loop (gathers inside it are not hoisted past the
     # scatter into ``packets``).
     cull_az, cull_el, bins = k.f32("cull_az"), k.f32("cull_el"), k["bins"]
+    first, end = dr.zeros(u32, width), sweeps
+    if uniform:
+        # The sweeps a lane can be in the beam: the direction sines are linear in j, so each
+        # beam test holds on an interval of j (with R_j <= R_a + |j| |s|, one sweep of slack).
+        reach = r0f + f32(dr.maximum(anchor, sweeps - 1 - anchor)) * dr.norm(step)
+        lo, hi = beam_sweeps(sines0, sines_step, cull_az * reach, cull_el * reach)
+        first = u32(dr.clip(dr.floor(lo) - 1.0 + f32(anchor), 0.0, f32(sweeps)))
+        end = u32(dr.clip(dr.ceil(hi) + 2.0 + f32(anchor), 0.0, f32(sweeps)))
     per_unit = dr.opaque(f32, 1.0 if units is None else units)  # per amplitude unit
 
     def stored(value: Any) -> Any:
@@ -231,10 +300,13 @@ def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, w
             rdot = -dr.fma(-j, along_step, along0) * (r + r0f) * inv
             s_az, s_el, s_b = (dr.fma(-j, d, s0) for s0, d in zip(sines0, sines_step,
                                                                   strict=True))
-            t = (j - centre) * inv_half
-            amp = coefficients[4]
-            for c in reversed(coefficients[:4]):
-                amp = dr.fma(amp, t, c)
+            if polynomial:
+                t = (j - centre) * inv_half
+                amp = coefficients[-1]
+                for c in reversed(coefficients[:-1]):
+                    amp = dr.fma(amp, t, c)
+            else:  # near the antenna: exact per sweep
+                amp = amplitude(o0f - j * step, fixed.__getitem__)
         else:
             o64 = [qi - dr.gather(f64, sw[f"p{a}"], s) for qi, a in zip(q, "xyz", strict=True)]
             r64 = dr.sqrt(o64[0] * o64[0] + o64[1] * o64[1] + o64[2] * o64[2])
@@ -256,9 +328,9 @@ def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, w
         lower, w_lo, w_hi = hg.split_weights(x, dr.floor)
         lower = bin0 + i32(lower)
         in_grid = (lower >= 0) & (lower < last_lower)
-        bit = u64(s)
-        counted = in_beam & in_grid & (((traced >> bit) & 1) != 0)
-        active = counted & (((seen >> bit) & 1) != 0) & lit
+        counted = in_beam & in_grid
+        seen = dr.select(s < 64, seen0, seen1) >> u64(s & 63)
+        active = counted & ((seen & 1) != 0) & lit
         cycles = cycles0 + hg.deposit_cycles_change(delta, r0f, radar32, rvp)
         sin_p, cos_p = sincos_turns(cycles)
         v_re, v_im = (amp * per_unit) * cos_p, (amp * per_unit) * sin_p
@@ -269,8 +341,7 @@ def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, w
                           mode=dr.ReduceMode.Expand)
         return s + 1, count + dr.select(counted, 1, 0)
 
-    return dr.while_loop((dr.zeros(u32, width), dr.zeros(u32, width)),
-                         lambda s, count: s < end, body)[1]
+    return dr.while_loop((first, dr.zeros(u32, width)), lambda s, count: s < end, body)[1]
 
 
 _FRAME_NAMES = tuple(f"f{i}{j}" for i in range(3) for j in range(3))

@@ -43,7 +43,7 @@ MULTIPATH_CHUNK_LANES = 2**20
 DEFAULT_RAYS = 4096
 """Default number of multipath rays per sweep."""
 
-SWEEPS_PER_CHUNK = 64
+SWEEPS_PER_CHUNK = 128
 """Sweeps traced together (one histogram buffer, one chunk-level beam cull)."""
 
 HISTOGRAM_CHUNK_ELEMENTS = 2**22

@@ -181,8 +181,9 @@ def visibility_block_arrays(blocks: NDArray) -> dict:
     """Device arrays of the visibility blocks of a chunk (docs/integrator.md §"Visibility
     reuse"): ``block_of`` (block of each sweep of the chunk), ``block_first`` and
     ``block_last`` (first and last sweep of each block, indices into the chunk), and for
-    chunks of at most 64 sweeps ``block_bits`` (UInt64: bit ``s`` set for each sweep ``s`` of
-    the block, the sweep masks of :func:`~.blocks.block_trace`).
+    chunks of at most 128 sweeps ``block_bits0`` and ``block_bits1`` (UInt64: bit ``s`` of
+    word ``s // 64`` set for each sweep ``s`` of the block, the sweep masks of
+    :func:`~.blocks.block_trace`).
 
     Parameters
     ----------
@@ -198,10 +199,12 @@ def visibility_block_arrays(blocks: NDArray) -> dict:
     _upload(sw, "block_of", mi.UInt32, blocks[_padded(index)].astype(np.uint32))
     _upload(sw, "block_first", mi.UInt32, _padded(first).astype(np.uint32))
     _upload(sw, "block_last", mi.UInt32, _padded(last).astype(np.uint32))
-    if len(blocks) <= 64:
+    if len(blocks) <= 128:
         bits = [sum(1 << int(s) for s in range(f, e + 1)) for f, e in zip(first, last,
                                                                           strict=True)]
-        _upload(sw, "block_bits", mi.UInt64, _padded(np.array(bits, dtype=np.uint64)))
+        for word in range(2):
+            _upload(sw, f"block_bits{word}", mi.UInt64, _padded(np.array(
+                [(b >> (64 * word)) & (2**64 - 1) for b in bits], dtype=np.uint64)))
     dr.make_opaque(*sw.values())
     return sw
 
