@@ -367,9 +367,9 @@ def backscatter_chunk(scene: Any, device: dict, geometry: dict, frames: NDArray,
                 contributions = block_trace(device, sw, consts, found, visibility, width,
                                             packets, uniform, polynomial, units)
                 dr.eval(packets, contributions)
-            # Every contribution is counted by the block kernel, the split pairs' too.
-            statistics["shadow_rays"] += int(dr.sum(contributions)[0])
-            split = dr.compress(visibility == 1)
+                # Every contribution is counted by the block kernel, the split pairs' too.
+                statistics["shadow_rays"] += int(dr.sum(contributions)[0])
+                split = dr.compress(visibility == 1)  # in order: any thread count
             statistics["visibility_split"] += dr.width(split)
             if dr.width(split):
                 split_trace(scene, device, sw, consts, found, split, len(chosen), re, im)

@@ -374,15 +374,16 @@ def add_packets(packets: Any, k: Constants, sweeps: int, bins: int, re: Any, im:
     rounding of ~6e-8 sqrt(N) for N deposits: both far below the block kernel's other errors
     (docs/integrator.md §"Performance")."""
     u32, f64 = mi.UInt32, mi.Float64
+    packet = _packet_type(units is not None)
     idx = dr.arange(u32, sweeps * bins)
     row = idx // k["bins"]
     j = idx - row * k["bins"]
-    has_lower_neighbour = j > 0
-    upper = 4 * idx - 2  # (re, im) of the upper bin of packet (s, j - 1)
+    own = dr.gather(packet, packets, idx)  # its lower half: bin j
+    below = dr.gather(packet, packets, idx - 1, j > 0)  # packet (s, j - 1): its upper half
     target = row * k["sweep_stride"] + j
     for part, out in ((0, re), (1, im)):
-        kind = mi.Float if units is None else mi.Int64
-        total = (f64(dr.gather(kind, packets, 4 * idx + part))
-                 + f64(dr.gather(kind, packets, upper + part, has_lower_neighbour)))
-        value = total if units is None else total * (1.0 / units)
+        if units is None:
+            value = f64(own[part]) + f64(below[part + 2])
+        else:  # exact integer sum, then one conversion
+            value = f64(own[part] + below[part + 2]) * (1.0 / units)
         dr.scatter_reduce(dr.ReduceOp.Add, out, value, target, mode=dr.ReduceMode.NoConflicts)
