@@ -8,8 +8,8 @@ default density: 9 scatterers per resolution cell, ~0.97 M scatterers), direct b
 * mitsar lane kernels with shadow rays shared by blocks of sweeps (3 cm; docs/integrator.md
   §"Visibility reuse"), on all cores and on one thread (the deterministic default before the
   block kernel);
-* mitsar block kernel (the default: a lane per scatterer and visibility block, float32 advance
-  over the block's sweeps, shared probe rays, packet deposits; docs/integrator.md
+* mitsar block kernel (the default: a lane per scatterer and chunk of sweeps, float32 advance
+  from the chunk's middle sweep, shared probe rays, packet deposits; docs/integrator.md
   §"Performance"), on all cores and deterministic (the default: integer packets on every core,
   the rest on one thread);
 * Sionna RT's ``PathSolver`` on the same room, one aperture position per solve

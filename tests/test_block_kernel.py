@@ -1,7 +1,7 @@
 """The block kernel of direct backscatter (docs/integrator.md §"Performance"): one lane per
-(scatterer, visibility block) advancing the block's sweeps in float32 from its first one, with
-shared probe rays and packet deposits, against the lane kernels (a lane per scatterer and sweep)
-on the paper's room."""
+scatterer and chunk of sweeps advanced in float32 from the chunk's middle sweep, with shared
+probe rays and packet deposits, against the lane kernels (a lane per scatterer and sweep) on
+the paper's room."""
 
 import math
 

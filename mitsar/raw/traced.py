@@ -163,7 +163,7 @@ def trace(radar: Radar, trajectory: Trajectory, look: Look, scene: Any, *,
         last bits between runs; docs/integrator.md §"Determinism").
     block_kernel : bool, optional
         Direct backscatter of static 3-D scenes with shared shadow rays by the block kernel,
-        a lane per (scatterer, block of sweeps) (default, XML ``block_kernel``), or ``False``:
+        a lane per scatterer and chunk of sweeps (default, XML ``block_kernel``), or ``False``:
         a lane per (scatterer, sweep), the kernels before it (docs/integrator.md
         §"Performance").
 

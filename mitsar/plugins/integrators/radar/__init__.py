@@ -2,11 +2,12 @@
 
 What it computes (docs/design.md §5.4–5.5; docs/integrator.md, docs/multipath.md): a fixed set of
 surface scatterers and the scene's point targets (:mod:`mitsar.scene.scatterers`) are traced
-against every sweep of an acquisition in one vectorised wavefront, one lane per (scatterer,
-sweep) pair, in chunks of up to 64 sweeps; multipath rays are shot and bounced per sweep of the
-same chunks. Every contribution is deposited into a complex range histogram at its apparent
-range with a float64 phase; :func:`mitsar.model.histogram.histogram_to_raw` then gives the raw
-sweeps by one inverse FFT each.
+against every sweep of an acquisition in one vectorised wavefront, in chunks of up to 128
+sweeps: static scenes one lane per scatterer and chunk (the block kernel), the others one lane
+per (scatterer, sweep) pair; multipath rays are shot and bounced per sweep of the same chunks.
+Every contribution is deposited into a complex range histogram at its apparent range;
+:func:`mitsar.model.histogram.histogram_to_raw` then gives the raw sweeps by one inverse FFT
+each.
 
 ==================== =================================================================== ======
 module               stage                                                               Mitsuba

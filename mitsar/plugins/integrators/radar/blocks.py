@@ -1,5 +1,6 @@
-"""Mechanism 1's block kernel: one lane per (scatterer, visibility block), sweeps advanced in
-float32 from the block's first one, deposited as packets (docs/integrator.md §"Performance").
+"""Mechanism 1's block kernel: one lane per candidate scatterer of a chunk of sweeps, advanced
+in float32 from the chunk's middle sweep, deposited as packets (docs/integrator.md
+§"Performance").
 
 :func:`block_trace` is the kernel; :func:`packet_buffer` and :func:`add_packets` hold and fold its
 deposits into the histogram. :func:`~.backscatter.backscatter_chunk` runs it for static 3-D

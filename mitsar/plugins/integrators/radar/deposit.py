@@ -7,8 +7,8 @@ length) with rate ``dR/dt`` adds ``a exp{j 2 pi (f_c tau_0 - K tau_0^2 / 2 + phi
 2R/c``, at the apparent range ``R + (f_c / K) dR/dt``, split linearly between its two
 neighbouring bins. The formulas are those of :mod:`mitsar.model.histogram`, called here on Dr.Jit
 arrays (the packed :class:`~.constants.Constants` stand in for the radar). The block kernel
-(:mod:`.blocks`) deposits the same values, advanced from a visibility block's first sweep, as
-packets of both bins.
+(:mod:`.blocks`) deposits the same values, advanced from a chunk's middle sweep, as packets of
+both bins.
 """
 
 from __future__ import annotations
