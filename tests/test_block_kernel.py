@@ -265,3 +265,33 @@ def test_chunks_near_the_antenna_evaluate_the_amplitude_per_sweep(monkeypatch):
     raw_blocks = histogram_to_raw_product(blocks)["raw"].values
     assert lanes.attrs["traced_shadow_rays"] > 10_000
     assert _error_db(raw_blocks, raw_lanes) < -90.0
+
+
+def test_wide_bin_grids_get_shorter_chunks_for_the_packets(monkeypatch):
+    """A packet buffer too small for 128 sweeps of the bin grid (here forced to 2^19 values,
+    ~43 sweeps of the paper room's ~3000 bins) makes the integrator cut shorter chunks, so the
+    block kernel still traces them (its packets fit), with the lane kernels' data."""
+    from mitsar.plugins.integrators.radar import backscatter
+
+    scene = load_scene("control_volume")
+    track = mitsar.Trajectory.linear(START, [0.5, 0.0, 0.0], 100.5 / RADAR.prf)
+    lanes = trace(RADAR, track, LOOK, scene, density=30.0, block_kernel=False)
+    monkeypatch.setattr(blocks_module, "PACKET_BUFFER_LIMIT", 2**19)
+    chunks = []
+    original = backscatter.packet_buffer
+
+    def spy(sweeps, bins, integer):
+        buffer = original(sweeps, bins, integer)
+        chunks.append((sweeps, buffer is not None))
+        return buffer
+
+    monkeypatch.setattr(backscatter, "packet_buffer", spy)
+    short = trace(RADAR, track, LOOK, scene, density=30.0)
+    sizes = [size for size, _ in chunks]
+    assert all(fits for _, fits in chunks) and sum(sizes) == 100
+    assert 16 <= sizes[0] < 128 and set(sizes[:-1]) == {sizes[0]}
+    assert 4 * sizes[0] * lanes.sizes["bin"] <= 2**19
+    assert short.attrs["traced_shadow_rays"] > 10_000
+    raw_lanes = histogram_to_raw_product(lanes)["raw"].values
+    raw_short = histogram_to_raw_product(short)["raw"].values
+    assert _error_db(raw_short, raw_lanes) < -90.0

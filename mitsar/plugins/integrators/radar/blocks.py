@@ -359,8 +359,13 @@ def packet_buffer(sweeps: int, bins: int, integer: bool) -> Any:
 
 PACKET_BUFFER_LIMIT = 2**23
 """Largest packet buffer in elements (64 MiB of int64, times the Dr.Jit threads in
-``ReduceMode.Expand``); beyond it (bin grids over ~30 000 bins) the lane kernels trace the
-chunk."""
+``ReduceMode.Expand``): chunks of 128 sweeps up to ~16 000 bins; wider grids get shorter
+chunks (down to :data:`MIN_PACKET_SWEEPS`, ~130 000 bins), beyond which the lane kernels trace
+them."""
+
+MIN_PACKET_SWEEPS = 16
+"""Shortest chunk the integrator shortens its chunks to so that the packets fit
+(:data:`PACKET_BUFFER_LIMIT`): about one visibility block at 2 mm per sweep and 3 cm."""
 
 
 def add_packets(packets: Any, k: Constants, sweeps: int, bins: int, re: Any, im: Any,

@@ -48,7 +48,7 @@ from mitsar.errors import MitsarError, ParameterError
 from mitsar.model import histogram as hg
 from mitsar.model.radar import Radar
 from mitsar.plugins import PerVariant, plugin_where, read_properties
-from mitsar.plugins.integrators.radar import bounce
+from mitsar.plugins.integrators.radar import blocks, bounce
 from mitsar.plugins.integrators.radar.backscatter import backscatter_chunk
 from mitsar.plugins.integrators.radar.config import (
     HISTOGRAM_CHUNK_ELEMENTS,
@@ -200,6 +200,11 @@ def _make_class() -> type:
                 return
             per_chunk = max(1, min(SWEEPS_PER_CHUNK, config.chunk_lanes,
                                    HISTOGRAM_CHUNK_ELEMENTS // (orders * bins)))
+            # Wide bin grids: shorter chunks keep the block kernel's packets within their
+            # buffer (beyond ~16 000 bins at 128 sweeps), down to blocks.MIN_PACKET_SWEEPS.
+            fitting = blocks.PACKET_BUFFER_LIMIT // (4 * bins)
+            if config.block_kernel and blocks.MIN_PACKET_SWEEPS <= fitting < per_chunk:
+                per_chunk = fitting
             device = scatterer_arrays(scatterers) if count else None
             target_speed = scatterers.max_speed() if count else 0.0
             max_speed = float(np.linalg.norm(geometry["velocity"], axis=1).max()) + target_speed
@@ -228,8 +233,10 @@ def _make_class() -> type:
                     if multipath:
                         self._multipath_chunk(scene, table, ray_dev, ray_ids, geometry, frames,
                                               setup, chosen, kmp, config, re, im)
-                    hist = (np.asarray(re)[:size] + 1j * np.asarray(im)[:size]).reshape(
-                        len(chosen), orders, bins)
+                    shape = (len(chosen), orders, bins)
+                    hist = np.empty(shape, np.complex128)  # filled part by part: no temporaries
+                    hist.real[...] = np.asarray(re)[:size].reshape(shape)
+                    hist.imag[...] = np.asarray(im)[:size].reshape(shape)
                     bar.update(len(chosen))
                     yield chosen, hist
             finally:
