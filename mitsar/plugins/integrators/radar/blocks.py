@@ -255,7 +255,7 @@ def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, w
         sines_step = frame_sines(step, fixed.__getitem__, "f")
         along0, along_step = dr.dot(o0f, velocity), dr.dot(step, velocity)
     if polynomial:
-        # The amplitude as a polynomial in t = (j - centre) / half over the chunk's sweeps
+        # 5. The amplitude as a polynomial in t = (j - centre) / half over the chunk's sweeps
         # [-anchor, sweeps - 1 - anchor], through its values at the Chebyshev nodes.
         centre = f32(sweeps - 1) * 0.5 - f32(anchor)
         half = dr.maximum(f32(sweeps - 1) * 0.5, 0.5)
@@ -274,7 +274,7 @@ def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, w
     cull_az, cull_el, bins = k.f32("cull_az"), k.f32("cull_el"), k["bins"]
     first, end = dr.zeros(u32, width), sweeps
     if uniform:
-        # The sweeps a lane can be in the beam: the direction sines are linear in j, so each
+        # 3. The sweeps a lane can be in the beam: the direction sines are linear in j, so each
         # beam test holds on an interval of j (with R_j <= R_a + |j| |s|, one sweep of slack).
         reach = r0f + f32(dr.maximum(anchor, sweeps - 1 - anchor)) * dr.norm(step)
         lo, hi = beam_sweeps(sines0, sines_step, cull_az * reach, cull_el * reach)
@@ -292,6 +292,7 @@ def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, w
         return dr.reinterpret_array(mi.Int64, shifted) - _MAGIC_BITS
 
     def body(s: Any, count: Any) -> tuple[Any, Any]:
+        """4.-6. One sweep: geometry, beam and bin, amplitude, phase, deposit."""
         j = f32(i32(s) - i32(anchor))
         if uniform:
             change = j * (j * quad - lin)  # R_j^2 - R_a^2 [m^2]
