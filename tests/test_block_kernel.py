@@ -295,3 +295,26 @@ def test_wide_bin_grids_get_shorter_chunks_for_the_packets(monkeypatch):
     raw_lanes = histogram_to_raw_product(lanes)["raw"].values
     raw_short = histogram_to_raw_product(short)["raw"].values
     assert _error_db(raw_short, raw_lanes) < -90.0
+
+
+@pytest.mark.filterwarnings("ignore:Trajectory. a vertical track")  # heading 0 is meant
+@pytest.mark.parametrize("case", ["climb", "every_fifth_sweep"])
+def test_block_kernel_where_the_range_changes_fastest(case):
+    """The float32 phase over a chunk is the block kernel's largest error, and it grows with
+    how much the range changes over the chunk: a vertical climb at 0.5 m/s moves the antenna
+    along the sight lines (up to ~80 cycles from the anchor), and tracing every fifth sweep
+    moves it 1 cm per traced sweep (0.64 m from the anchor; the amplitude is then exact per
+    sweep). Measured -96 and -101 dB against the lane kernels (against -116 dB on the paper's
+    track); asserted < -90 dB, the issue's bound being -50 dB."""
+    scene = load_scene("control_volume", material="concrete_94ghz")
+    if case == "climb":
+        track = mitsar.Trajectory.linear([14.8, 1.4, 3.0], [0.0, 0.0, 0.5], 140.5 / RADAR.prf)
+        extra = {}
+    else:
+        track = mitsar.Trajectory.linear(START, [0.5, 0.0, 0.0], 700.5 / RADAR.prf)
+        extra = dict(sweeps=np.arange(0, 700, 5))
+    options = dict(density=30.0, seed=3, **extra)
+    lanes = trace(RADAR, track, LOOK, scene, block_kernel=False, **options)
+    blocks = trace(RADAR, track, LOOK, scene, **options)
+    assert blocks.attrs["traced_shadow_rays"] == lanes.attrs["traced_shadow_rays"] > 50_000
+    assert _error_db(blocks["histogram"].values, lanes["histogram"].values) < -90.0
