@@ -145,15 +145,29 @@ def deposit_cycles(delay: Any, radar: Radar, rvp: Any = 1.0) -> Any:
     return radar.carrier_frequency * delay - rvp * (0.5 * radar.chirp_rate) * delay * delay
 
 
+def carrier_cycles_per_metre(radar: Radar) -> Any:
+    """``2 f_c / c`` [cycles/m]: the carrier term of :func:`deposit_cycles` per metre of one-way
+    range (the linear part of :func:`deposit_cycles_change`)."""
+    return (2.0 / SPEED_OF_LIGHT) * radar.carrier_frequency
+
+
+def rvp_cycles_change(range_change: Any, slant_range: Any, radar: Radar) -> Any:
+    """``-(2K / c^2)(2R + d) d`` [cycles]: the residual video phase's part of
+    :func:`deposit_cycles_change` (``-K tau_0^2/2`` with ``tau_0 = 2R/c``, paper eq. 1)."""
+    return -(2.0 / SPEED_OF_LIGHT**2) * radar.chirp_rate * (2.0 * slant_range
+                                                           + range_change) * range_change
+
+
 def deposit_cycles_change(range_change: Any, slant_range: Any, radar: Radar,
                           rvp: Any = 1.0) -> Any:
     """Change of :func:`deposit_cycles` when the one-way range goes from ``R`` to ``R + d``.
 
     ``deposit_cycles`` is a quadratic in ``tau_0 = 2R/c``, so the change is exactly
-    ``(2 f_c / c) d - rvp (2K / c^2)(2R + d) d`` [cycles]. The block kernel of the ``radar``
-    integrator evaluates it in float32 for changes ``d`` of centimetres over a block of sweeps
-    (about 20 cycles, rounding ~1e-6 cycles), while the phase at ``R`` is wrapped in float64
-    (docs/integrator.md §"Performance"). Plain arithmetic: accepts NumPy and Dr.Jit arrays.
+    ``(2 f_c / c) d - rvp (2K / c^2)(2R + d) d`` [cycles]
+    (:func:`carrier_cycles_per_metre`, :func:`rvp_cycles_change`). The block kernel of the
+    ``radar`` integrator evaluates the carrier term's linear ramp over a chunk exactly and the
+    rest in float32 (docs/integrator.md §"Performance"). Plain arithmetic: accepts NumPy and
+    Dr.Jit arrays.
 
     Parameters
     ----------
@@ -166,9 +180,8 @@ def deposit_cycles_change(range_change: Any, slant_range: Any, radar: Radar,
     rvp : float or array_like
         1 keeps the residual video phase, 0 drops it (as :func:`deposit_cycles`).
     """
-    return range_change * ((2.0 / SPEED_OF_LIGHT) * radar.carrier_frequency
-                           - rvp * (2.0 / SPEED_OF_LIGHT**2) * radar.chirp_rate
-                           * (2.0 * slant_range + range_change))
+    return (range_change * carrier_cycles_per_metre(radar)
+            + rvp * rvp_cycles_change(range_change, slant_range, radar))
 
 
 def split_weights(position: Any, floor: Any = np.floor) -> tuple[Any, Any, Any]:

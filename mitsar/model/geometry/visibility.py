@@ -77,7 +77,7 @@ def visibility_blocks(motion: NDArray, feature: float, cap: int,
     motion = np.asarray(motion, dtype=float)
     blocks = np.zeros(len(motion), dtype=np.int64)
     block, first = 0, 0
-    # A loop over the sweeps of one chunk (<= 64), on the host, once per chunk: not a hot path.
+    # A loop over the sweeps of one chunk (<= 128), on the host, once per chunk: not a hot path.
     for i in range(1, len(motion)):
         reach = motion[min(i + 1, len(motion) - 1)] if shared_ends else motion[i]
         if reach - motion[first] > feature or i - first >= cap:

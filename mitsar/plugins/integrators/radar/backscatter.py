@@ -41,6 +41,7 @@ from mitsar.model.geometry.visibility import (
 from mitsar.model.radar import Radar
 from mitsar.plugins.integrators.radar.blocks import (
     MAX_CHUNK_SWEEPS,
+    MAX_HALF_SPAN,
     add_packets,
     amplitude_polynomial_holds,
     block_trace,
@@ -312,10 +313,10 @@ def backscatter_chunk(scene: Any, device: dict, geometry: dict, frames: NDArray,
     k["first"], k["sweeps"] = 0, len(chosen)
     motion = sight_line_motion(geometry["position"][chosen], geometry["slow_time"][chosen],
                                target_speed)
-    # The block kernel (a lane per candidate x block, docs/integrator.md §"Performance") serves
-    # static 3D scatterer sets with shared shadow rays; moving sets, the 2D mode and a ray per
-    # sweep keep the lane kernels. Its probes share the rays at block boundaries unless the
-    # caller caps the blocks (e.g. at scene changes).
+    # The block kernel (a lane per candidate over the chunk, docs/integrator.md §"Performance")
+    # serves static 3D scatterer sets with shared shadow rays; moving sets, the 2D mode and a
+    # ray per sweep keep the lane kernels. Its probes share the rays at block boundaries unless
+    # the caller caps the blocks (e.g. at scene changes).
     blocked = (config.block_kernel and device["static"] and not sw["planar"]
                and len(chosen) <= MAX_CHUNK_SWEEPS)
     shared = blocked and visibility_block is None
@@ -345,6 +346,7 @@ def backscatter_chunk(scene: Any, device: dict, geometry: dict, frames: NDArray,
         sw.update(steps)
         positions = geometry["position"][chosen]
         half_span = float(np.linalg.norm(positions - positions[len(chosen) // 2], axis=1).max())
+        uniform = uniform and half_span <= MAX_HALF_SPAN * (1.0 + 1e-9)  # else float64 path
         polynomial = uniform and amplitude_polynomial_holds(half_span, float(nearest[0]),
                                                             radar)
         units = fixed_point_scale(device, k) if exact else None

@@ -97,6 +97,32 @@ MAX_CHUNK_SWEEPS = 128
 """Sweeps of a chunk the block kernel traces: one bit each in a lane's two UInt64 words of
 sweep masks."""
 
+MAX_HALF_SPAN = 0.15
+"""Largest antenna displacement from a chunk's anchor sweep for the float32 advance [m] (the
+paper's 2 mm per sweep: 128 sweeps hold 0.128 m). The phase's remainder after its exact linear
+ramp is at most ``(2 f_c/c) span² / (2 R)``: ~7 cycles at 5 m, rounded to ~1e-6 cycles
+(docs/integrator.md §"Performance"); faster platforms get shorter chunks
+(:func:`block_chunk_sweeps`), and chunks beyond it take the float64 path."""
+
+
+def block_chunk_sweeps(sweeps: int, bins: int, positions: Any) -> int:
+    """Sweeps per chunk for the block kernel, at most ``sweeps``.
+
+    Shorter where the packets of a chunk would overflow :data:`PACKET_BUFFER_LIMIT` (wide bin
+    grids, down to :data:`MIN_PACKET_SWEEPS`; beyond that the lane kernels trace the chunk) and
+    where the antenna moves more than :data:`MAX_HALF_SPAN` from the anchor (``positions``: the
+    antenna at the traced sweeps [m]; a chunk of ``n`` sweeps spans ``n // 2`` steps).
+    """
+    fitting = PACKET_BUFFER_LIMIT // (4 * max(int(bins), 1))
+    if MIN_PACKET_SWEEPS <= fitting < sweeps:
+        sweeps = fitting
+    positions = np.asarray(positions, dtype=float)
+    if len(positions) > 1:
+        step = float(np.linalg.norm(np.diff(positions, axis=0), axis=1).max())
+        if step > 0.0:
+            sweeps = max(1, min(sweeps, 2 * int(MAX_HALF_SPAN / step) + 1))
+    return sweeps
+
 
 def amplitude_polynomial_holds(half_span: float, nearest: float, radar: Any) -> bool:
     """Whether the amplitude polynomial serves a chunk (:data:`AMPLITUDE_SPAN_LIMIT`).
@@ -160,12 +186,13 @@ def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, w
     A lane gathers its scatterer once and evaluates in float64, at the chunk's middle sweep
     ``a`` (the anchor), the range ``R_a``, the wrapped deposit phase ``f_c tau_a - K tau_a^2/2 +
     phi`` and the bin position (docs/design.md §5.5). Per sweep ``j`` (counted from the anchor,
-    |j| <= 32) it evaluates in float32 what :func:`~.backscatter.trace` evaluates per
+    |j| <= 64) it evaluates in float32 what :func:`~.backscatter.trace` evaluates per
     (scatterer, sweep) lane of a static 3-D set:
 
     - geometry: with ``uniform`` (the antenna moves by one step ``s`` per sweep over the chunk
       with one frame and velocity, :func:`~.constants.chunk_step_arrays`),
-      ``R_j^2 - R_a^2 = j (j |s|^2 - 2 o_a.s)`` and ``d_j = R_j - R_a`` from it, no gather;
+      ``R_j^2 - R_a^2 = j (j |s|^2 - 2 o_a.s)`` and ``d_j = R_j - R_a`` from it, no gather
+      (and not beyond :data:`MAX_HALF_SPAN` from the anchor);
       otherwise the antenna position, velocity and frame are gathered per sweep and ``R_j``
       taken in float64;
     - beam test on the direction sines, as :func:`~.backscatter.cull`;
@@ -176,8 +203,12 @@ def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, w
       §"Performance" states the error); otherwise exact per sweep;
     - bin: ``x_j = x_a + (d_j + (f_c/K) dR/dt) / dr`` (:func:`mitsar.model.histogram.
       apparent_range`), split linearly;
-    - phase: ``cycles_a + deposit_cycles_change(d_j)`` (exact change of the quadratic phase),
-      :func:`~mitsar.plugins.ops.sincos_turns` in float32;
+    - phase: ``cycles_a + deposit_cycles_change(d_j)`` (exact change of the quadratic phase):
+      on uniform chunks its carrier term's linear ramp ``-j g (2 f_c/c)``, ``g = o_a.s / R_a``,
+      exactly (wrapped in float64 per lane, the product's rounding recovered by an fma), and
+      the small rest ``j (j |s|^2 + g d_j) / (R_j + R_a)`` and the residual video phase in
+      float32 (chunks span at most :data:`MAX_HALF_SPAN` from the anchor); otherwise the
+      change in float64; then :func:`~mitsar.plugins.ops.sincos_turns` in float32;
     - deposit: one packet of four values (re, im of the lower and of the upper bin) added at
       ``4 (s bins + lower)`` of ``packets``, non-atomically (``ReduceMode.Expand``: a copy per
       thread, summed afterwards): int64 in fixed-point units (``units`` per amplitude unit,
@@ -214,9 +245,10 @@ def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, w
     q = [dr.gather(f64, sc[f"p{a}"], m) for a in "xyz"]
     o0 = [qi - dr.gather(f64, sw[f"p{a}"], anchor) for qi, a in zip(q, "xyz", strict=True)]
     r0 = dr.sqrt(o0[0] * o0[0] + o0[1] * o0[1] + o0[2] * o0[2])
-    cycles0 = (hg.deposit_cycles(r0 * (2.0 / SPEED_OF_LIGHT), k, k["rvp"])
-               + dr.gather(f64, sc["phase"], m))
-    cycles0 = f32(cycles0 - dr.floor(cycles0))
+    cycles0_64 = (hg.deposit_cycles(r0 * (2.0 / SPEED_OF_LIGHT), k, k["rvp"])
+                  + dr.gather(f64, sc["phase"], m))
+    cycles0_64 = cycles0_64 - dr.floor(cycles0_64)
+    cycles0 = f32(cycles0_64)
     position0 = (r0 - k["first_range"]) * k["inv_step"]
     bin0 = dr.floor(position0)
     fraction0 = f32(position0 - bin0)
@@ -243,10 +275,19 @@ def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, w
                                    offset=offset) * weight
         return one_way * dr.sqrt(sigma) * dr.select(scale > 0.0, scale * inv * inv, 1.0)
 
+    carrier = k.f32("fc") * (2.0 / SPEED_OF_LIGHT)  # hg.carrier_cycles_per_metre [cycles/m]
     if uniform:
         o0f = mi.Vector3f(*(f32(c) for c in o0))
-        step = mi.Vector3f(*(dr.gather(f32, sw[f"step{a}"], 0) for a in "xyz"))
-        lin = f32(2.0 * (o0[0] * f64(step.x) + o0[1] * f64(step.y) + o0[2] * f64(step.z)))
+        step64 = [dr.gather(f64, sw[f"step{a}"], 0) for a in "xyz"]
+        step = mi.Vector3f(*(f32(c) for c in step64))
+        # g: the range's first-order decrease per sweep, o_a.s / R_a [m]; its carrier phase
+        # -j g (2 f_c/c) is the exact ramp j (w_hi + w_lo) [cycles], w wrapped to half a turn.
+        g64 = (o0[0] * step64[0] + o0[1] * step64[1] + o0[2] * step64[2]) / r0
+        lin, g = f32(2.0 * g64 * r0), f32(g64)
+        ramp64 = -g64 * hg.carrier_cycles_per_metre(k)
+        ramp64 = ramp64 - dr.round(ramp64)
+        ramp_hi = f32(ramp64)
+        ramp_lo = f32(ramp64 - f64(ramp_hi))
         quad = dr.squared_norm(step)
         fixed = {name: dr.gather(f32, sw[name], anchor) for name in _FRAME_NAMES}
         velocity = mi.Vector3f(*(f32(dr.gather(f64, sw[f"v{a}"], anchor)) for a in "xyz"))
@@ -300,6 +341,14 @@ def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, w
             inv = 1.0 / (r * (r + r0f))  # one division for d_j and dR/dt
             delta = change * r * inv
             rdot = -dr.fma(-j, along_step, along0) * (r + r0f) * inv
+            # Phase: the carrier's linear ramp exactly (its product's rounding error recovered
+            # by the fma, whole turns dropped), then the small rest d_j + j g =
+            # j (j |s|^2 + g d_j) / (R_j + R_a) and the residual video phase.
+            turns = j * ramp_hi
+            ramp = (turns - dr.round(turns)) + dr.fma(j, ramp_lo, dr.fma(j, ramp_hi, -turns))
+            rest = j * dr.fma(g, delta, j * quad) * (r * inv)
+            cycles = (cycles0 + ramp + carrier * rest
+                      + rvp * hg.rvp_cycles_change(delta, r0f, radar32))
             s_az, s_el, s_b = (dr.fma(-j, d, s0) for s0, d in zip(sines0, sines_step,
                                                                   strict=True))
             if polynomial:
@@ -313,6 +362,8 @@ def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, w
             o64 = [qi - dr.gather(f64, sw[f"p{a}"], s) for qi, a in zip(q, "xyz", strict=True)]
             r64 = dr.sqrt(o64[0] * o64[0] + o64[1] * o64[1] + o64[2] * o64[2])
             delta, r = f32(r64 - r0), f32(r64)
+            cycles64 = cycles0_64 + hg.deposit_cycles_change(r64 - r0, r0, k, k["rvp"])
+            cycles = f32(cycles64 - dr.floor(cycles64))  # float64: any range change
             o = mi.Vector3f(*(f32(c) for c in o64))
             v = mi.Vector3f(*(f32(dr.gather(f64, sw[f"v{a}"], s)) for a in "xyz"))
             rdot = -dr.dot(o, v) / r
@@ -333,7 +384,6 @@ def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, w
         counted = in_beam & in_grid
         seen = dr.select(s < 64, seen0, seen1) >> u64(s & 63)
         active = counted & ((seen & 1) != 0) & lit
-        cycles = cycles0 + hg.deposit_cycles_change(delta, r0f, radar32, rvp)
         sin_p, cos_p = sincos_turns(cycles)
         v_re, v_im = (amp * per_unit) * cos_p, (amp * per_unit) * sin_p
         value = packet(*(stored(v) for v in (v_re * w_lo, v_im * w_lo, v_re * w_hi,

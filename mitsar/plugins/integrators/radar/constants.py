@@ -239,7 +239,7 @@ def chunk_step_arrays(geometry: dict, frames: NDArray, chosen: NDArray) -> tuple
     Returns
     -------
     dict
-        ``stepx``, ``stepy``, ``stepz``: Float32 (padded) [m].
+        ``stepx``, ``stepy``, ``stepz``: Float64 (padded) [m].
     bool
         True if the chunk is uniform.
     """
@@ -254,7 +254,7 @@ def chunk_step_arrays(geometry: dict, frames: NDArray, chosen: NDArray) -> tuple
                    and np.abs(vel - vel[anchor]).max() <= tol_v)
     sw: dict = {}
     for i, axis in enumerate("xyz"):
-        _upload(sw, "step" + axis, mi.Float, _padded(step[i:i + 1]))
+        _upload(sw, "step" + axis, mi.Float64, _padded(step[i:i + 1]))
     dr.make_opaque(*sw.values())
     return sw, uniform
 

@@ -200,13 +200,12 @@ def _make_class() -> type:
                 return
             per_chunk = max(1, min(SWEEPS_PER_CHUNK, config.chunk_lanes,
                                    HISTOGRAM_CHUNK_ELEMENTS // (orders * bins)))
-            # Wide bin grids: shorter chunks keep the block kernel's packets within their
-            # buffer (beyond ~16 000 bins at 128 sweeps), down to blocks.MIN_PACKET_SWEEPS.
-            fitting = blocks.PACKET_BUFFER_LIMIT // (4 * bins)
-            if config.block_kernel and blocks.MIN_PACKET_SWEEPS <= fitting < per_chunk:
-                per_chunk = fitting
             device = scatterer_arrays(scatterers) if count else None
             target_speed = scatterers.max_speed() if count else 0.0
+            if (count and config.block_kernel and target_speed == 0.0 and not setup.planar
+                    and config.visibility_feature > 0.0):
+                per_chunk = blocks.block_chunk_sweeps(per_chunk, bins,
+                                                      geometry["position"][sweeps])
             max_speed = float(np.linalg.norm(geometry["velocity"], axis=1).max()) + target_speed
             k = backscatter_constants(radar, config, grid,
                                       hg.range_step(radar, config.bins_per_cell), orders, rvp,
