@@ -45,6 +45,7 @@ from mitsar.plugins.integrators.radar.blocks import (
     add_packets,
     amplitude_polynomial_holds,
     block_trace,
+    deposit_runs,
     fixed_point_scale,
     frame_sines,
     packet_buffer,
@@ -366,8 +367,11 @@ def backscatter_chunk(scene: Any, device: dict, geometry: dict, frames: NDArray,
                     statistics["visibility_rays"] += width * int(
                         np.sum(np.minimum(block_sizes, 2)))
                 dr.eval(visibility)
+                first, end, irregular = deposit_runs(sw, consts, visibility, width)
+                dr.eval(first, end, irregular)
+                runs = None if dr.any(irregular)[0] else (first, end)
                 contributions = block_trace(device, sw, consts, found, visibility, width,
-                                            packets, uniform, polynomial, units)
+                                            packets, uniform, polynomial, units, runs)
                 dr.eval(packets, contributions)
                 # Every contribution is counted by the block kernel, the split pairs' too.
                 statistics["shadow_rays"] += int(dr.sum(contributions)[0])

@@ -169,18 +169,42 @@ def beam_sweeps(sines: tuple, steps: tuple, reach_az: Any, reach_el: Any) -> tup
     return lo, hi
 
 
+def deposit_runs(sw: dict, k: Constants, visibility: Any, width: int) -> tuple[Any, Any, Any]:
+    """Per candidate of the launch, the sweeps its blocks seen at both ends (probe code 2)
+    cover when they are one run: ``(first, end)`` (``first == end``: none), and whether they
+    are not (``irregular``: seen blocks separated by hidden or split ones). A launch without
+    irregular candidates lets :func:`block_trace` test the run with two 32-bit compares."""
+    u32 = mi.UInt32
+    local = dr.arange(u32, width)
+
+    def body(b: Any, first: Any, end: Any, before: Any, irregular: Any) -> tuple:
+        seen = dr.gather(u32, visibility, local * k["blocks"] + b) == 2
+        starts = seen & ~before
+        irregular |= starts & (end > 0)
+        first = dr.select(starts & (end == 0), dr.gather(u32, sw["block_first"], b), first)
+        end = dr.select(seen, dr.gather(u32, sw["block_last"], b) + 1, end)
+        return b + 1, first, end, seen, irregular
+
+    state = (dr.zeros(u32, width), dr.zeros(u32, width), dr.zeros(u32, width),
+             dr.full(mi.Bool, False, width), dr.full(mi.Bool, False, width))
+    _, first, end, _, irregular = dr.while_loop(state, lambda b, *rest: b < k["blocks"], body)
+    return first, end, irregular
+
+
 def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, width: int,
-                packets: Any, uniform: bool, polynomial: bool, units: float | None) -> Any:
+                packets: Any, uniform: bool, polynomial: bool, units: float | None,
+                runs: tuple[Any, Any] | None = None) -> Any:
     """Trace every sweep of the chunk for ``width`` candidates: a lane per candidate, a symbolic
     loop over sweeps.
 
     Lanes are the candidates ``first ..`` of the launch; all run the chunk's ``k["sweeps"]``
     (<= :data:`MAX_CHUNK_SWEEPS`) sweeps, so the lanes of a SIMD packet share their trip count
     and every sweep datum. ``visibility`` holds the probe codes of the (candidate, block) pairs
-    (:func:`~.backscatter.probe` layout): a lane first ORs the sweep bits of its blocks seen at
-    both ends (code 2; ``sw["block_bits0/1"]``) into a two-word mask of the sweeps it deposits
-    without a shadow ray (docs/integrator.md §"Visibility reuse"); blocks hidden at both ends
-    (0) deposit nothing, and those whose ends disagree (1) are traced sweep by sweep by
+    (:func:`~.backscatter.probe` layout): a lane deposits without a shadow ray in the sweeps of
+    its blocks seen at both ends (code 2; docs/integrator.md §"Visibility reuse"), given as
+    ``runs`` (:func:`deposit_runs`, when every lane's are one run) or else ORed from the sweep
+    bits ``sw["block_bits0/1"]`` into a two-word mask; blocks hidden at both ends (0) deposit
+    nothing, and those whose ends disagree (1) are traced sweep by sweep by
     :func:`~.backscatter.split_trace`.
 
     A lane gathers its scatterer once and evaluates in float64, at the chunk's middle sweep
@@ -229,15 +253,17 @@ def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, w
     local = dr.arange(u32, width)
     m = dr.gather(u32, found, local + k["first"])
 
-    # 1. The lane's deposit mask (two words) from its blocks' visibility codes.
-    def mask_body(b: Any, seen0: Any, seen1: Any) -> tuple[Any, Any, Any]:
-        seen = dr.gather(u32, visibility, local * k["blocks"] + b) == 2
-        return (b + 1, seen0 | dr.select(seen, dr.gather(u64, sw["block_bits0"], b), 0),
-                seen1 | dr.select(seen, dr.gather(u64, sw["block_bits1"], b), 0))
+    # 1. The sweeps the lane deposits: one run (runs given) or a two-word mask of its blocks
+    # seen at both ends.
+    if runs is None:
+        def mask_body(b: Any, seen0: Any, seen1: Any) -> tuple[Any, Any, Any]:
+            seen = dr.gather(u32, visibility, local * k["blocks"] + b) == 2
+            return (b + 1, seen0 | dr.select(seen, dr.gather(u64, sw["block_bits0"], b), 0),
+                    seen1 | dr.select(seen, dr.gather(u64, sw["block_bits1"], b), 0))
 
-    _, seen0, seen1 = dr.while_loop(
-        (dr.zeros(u32, width), dr.zeros(u64, width), dr.zeros(u64, width)),
-        lambda b, seen0, seen1: b < k["blocks"], mask_body)
+        _, seen0, seen1 = dr.while_loop(
+            (dr.zeros(u32, width), dr.zeros(u64, width), dr.zeros(u64, width)),
+            lambda b, seen0, seen1: b < k["blocks"], mask_body)
     sweeps = k["sweeps"]
     anchor = sweeps // 2
 
@@ -382,8 +408,11 @@ def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, w
         lower = bin0 + i32(lower)
         in_grid = (lower >= 0) & (lower < last_lower)
         counted = in_beam & in_grid
-        seen = dr.select(s < 64, seen0, seen1) >> u64(s & 63)
-        active = counted & ((seen & 1) != 0) & lit
+        if runs is None:
+            seen = (dr.select(s < 64, seen0, seen1) >> u64(s & 63)) & 1
+            active = counted & (seen != 0) & lit
+        else:  # 32-bit compares: a tenth of the kernel less than the 64-bit mask test
+            active = counted & (s >= runs[0]) & (s < runs[1]) & lit
         sin_p, cos_p = sincos_turns(cycles)
         v_re, v_im = (amp * per_unit) * cos_p, (amp * per_unit) * sin_p
         value = packet(*(stored(v) for v in (v_re * w_lo, v_im * w_lo, v_re * w_hi,
