@@ -406,3 +406,18 @@ def test_deposit_runs_and_masks_agree():
         backscatter.deposit_runs = original
     np.testing.assert_array_equal(with_masks["histogram"].values,
                                   with_runs["histogram"].values)
+
+
+def test_packet_window_covers_every_reachable_bin():
+    """The packets of a chunk span the lower bins its deposits can reach: candidates' ranges
+    at the middle sweep widened by the antenna's excursion, the Doppler shift of the apparent
+    range and two bins of slack, clipped to the grid; the paper's room (above) reaches ~30 %
+    of its grid, and its block-kernel data equal the lane kernels' (other tests)."""
+    k = {"bins": 3000, "inv_step": 160.0, "first_range": 1.0, "doppler_bins": 3.0}
+    lo, width = blocks_module.packet_window(5.0, 9.0, 0.128, k)
+    # ranges 4.872 .. 9.128 m -> lower bins 619.5 .. 1300.5, +-3 Doppler, slack
+    assert lo <= math.floor((4.872 - 1.0) * 160.0 - 3.0) - 2
+    assert lo + width >= math.ceil((9.128 - 1.0) * 160.0 + 3.0) + 2
+    assert width < 0.25 * k["bins"]
+    assert blocks_module.packet_window(0.0, 100.0, 0.1, k) == (0, 2999)  # clipped
+    assert blocks_module.packet_window(float("inf"), 0.0, 0.1, k) == (0, 1)  # no candidate

@@ -49,6 +49,7 @@ from mitsar.plugins.integrators.radar.blocks import (
     fixed_point_scale,
     frame_sines,
     packet_buffer,
+    packet_window,
 )
 from mitsar.plugins.integrators.radar.config import RadarIntegratorConfig
 from mitsar.plugins.integrators.radar.constants import (
@@ -80,9 +81,10 @@ def _moved(p: Any, sc: dict, name: str, m: Any, t: Any) -> Any:
     return p + v * t
 
 
-def candidates(sc: dict, k: Constants, count: int) -> tuple[Any, Any]:
+def candidates(sc: dict, k: Constants, count: int) -> tuple[Any, Any, Any]:
     """Scatterers that may lie in the beam of some sweep of the chunk (``dr.compress``), and
-    the smallest of their ranges from the antenna at the middle sweep [m] (Float32, width 1).
+    the smallest and largest of their ranges from the antenna at the middle sweep [m]
+    (Float32, width 1).
 
     The beam test of :func:`cull` at the chunk's middle sweep, widened by how much a direction
     sine can change over the chunk: ``|u_s - u_mid| <= |d_s - d_mid| + |e_s - e_mid|`` with
@@ -99,7 +101,8 @@ def candidates(sc: dict, k: Constants, count: int) -> tuple[Any, Any]:
     margin = 2.0 * k.f32("mid_disp") / r + k.f32("mid_turn") + 1e-4
     active = ((cos_b > -margin) & (dr.abs(u_az) < k.f32("cull_az") + margin)
               & (dr.abs(u_el) < k.f32("cull_el") + margin)) | (r <= 2.0 * k.f32("mid_disp"))
-    return dr.compress(active), dr.min(dr.select(active, r, dr.inf))
+    return (dr.compress(active), dr.min(dr.select(active, r, dr.inf)),
+            dr.max(dr.select(active, r, 0.0)))
 
 
 def cull(sc: dict, sw: dict, k: Constants, found: Any, lanes: int) -> Any:
@@ -334,19 +337,25 @@ def backscatter_chunk(scene: Any, device: dict, geometry: dict, frames: NDArray,
             sw.update(shared_probe_arrays(probe_sweeps, probe_first, probe_end))
     k["blocks"] = int(blocks[-1]) + 1
     with order_independent():  # dr.compress returns the indices in increasing order
-        found, nearest = candidates(device, Constants(k, BACKSCATTER_FLOATS), count)
-        dr.eval(found, nearest)
+        found, nearest, farthest = candidates(device, Constants(k, BACKSCATTER_FLOATS), count)
+        dr.eval(found, nearest, farthest)
     width_found = dr.width(found)
     block = max(1, config.chunk_lanes // len(chosen))
     statistics["pairs"] += count * len(chosen)
     statistics["candidate_pairs"] += width_found * len(chosen)
     exact = deterministic()  # integer packets: the same bits on any number of threads
-    packets = packet_buffer(len(chosen), k["bins"], exact) if blocked and reuse else None
+    positions = geometry["position"][chosen]
+    half_span = float(np.linalg.norm(positions - positions[len(chosen) // 2], axis=1).max())
+    if blocked and reuse:
+        # The packets cover the bins the candidates can reach (their ranges at the middle
+        # sweep, the antenna's excursion, the Doppler shift and two bins of float32 slack).
+        k["bin_lo"], k["bin_width"] = packet_window(
+            float(nearest[0]), float(farthest[0]), half_span, k)
+    packets = (packet_buffer(len(chosen), k["bin_width"], exact) if blocked and reuse
+               else None)
     if packets is not None:
         steps, uniform = chunk_step_arrays(geometry, frames, chosen)
         sw.update(steps)
-        positions = geometry["position"][chosen]
-        half_span = float(np.linalg.norm(positions - positions[len(chosen) // 2], axis=1).max())
         uniform = uniform and half_span <= MAX_HALF_SPAN * (1.0 + 1e-9)  # else float64 path
         polynomial = uniform and amplitude_polynomial_holds(half_span, float(nearest[0]),
                                                             radar)
@@ -395,7 +404,7 @@ def backscatter_chunk(scene: Any, device: dict, geometry: dict, frames: NDArray,
         dr.eval(re, im)
     if packets is not None:
         with order_independent():  # one add per bin (no conflicts): any thread count
-            add_packets(packets, Constants(k, BACKSCATTER_FLOATS), len(chosen), k["bins"], re,
+            add_packets(packets, Constants(k, BACKSCATTER_FLOATS), len(chosen), k["bin_width"], re,
                         im, units)
             dr.eval(re, im)
 

@@ -338,7 +338,8 @@ def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, w
         lit = mi.Bool(True)
     # Constants read once, outside the loop (gathers inside it are not hoisted past the
     # scatter into ``packets``).
-    cull_az, cull_el, bins = k.f32("cull_az"), k.f32("cull_el"), k["bins"]
+    cull_az, cull_el = k.f32("cull_az"), k.f32("cull_el")
+    bin_lo, window = i32(k["bin_lo"]), i32(k["bin_width"])  # the packets' bins
     first, end = dr.zeros(u32, width), sweeps
     if uniform:
         # 3. The sweeps a lane can be in the beam: the direction sines are linear in j, so each
@@ -408,16 +409,18 @@ def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, w
         lower = bin0 + i32(lower)
         in_grid = (lower >= 0) & (lower < last_lower)
         counted = in_beam & in_grid
+        slot = lower - bin_lo  # in the chunk's packet window (packet_window: always)
         if runs is None:
             seen = (dr.select(s < 64, seen0, seen1) >> u64(s & 63)) & 1
             active = counted & (seen != 0) & lit
         else:  # 32-bit compares: a tenth of the kernel less than the 64-bit mask test
             active = counted & (s >= runs[0]) & (s < runs[1]) & lit
+        active &= (slot >= 0) & (slot < window)
         sin_p, cos_p = sincos_turns(cycles)
         v_re, v_im = (amp * per_unit) * cos_p, (amp * per_unit) * sin_p
         value = packet(*(stored(v) for v in (v_re * w_lo, v_im * w_lo, v_re * w_hi,
                                              v_im * w_hi)))
-        index = s * bins + u32(dr.select(active, lower, 0))
+        index = s * u32(window) + u32(dr.select(active, slot, 0))
         dr.scatter_reduce(dr.ReduceOp.Add, packets, value, index, active,
                           mode=dr.ReduceMode.Expand)
         return s + 1, count + dr.select(counted, 1, 0)
@@ -426,6 +429,24 @@ def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, w
 
 
 _FRAME_NAMES = tuple(f"f{i}{j}" for i in range(3) for j in range(3))
+
+
+def packet_window(nearest: float, farthest: float, half_span: float, k: dict
+                  ) -> tuple[int, int]:
+    """First bin and number of bins of a chunk's packet rows: the ``lower`` bins a deposit of
+    the chunk can have, from the candidates' nearest and farthest range at the middle sweep
+    [m], the antenna's largest displacement from it [m] and the Doppler shift of the apparent
+    range (``k["doppler_bins"]``), with two bins of slack for float32 rounding; within
+    ``[0, bins - 1)``. The paper's room reaches ~30 % of its bin grid: the packets, their
+    per-thread copies and the fold shrink with it."""
+    last = int(k["bins"]) - 1
+    if not nearest <= farthest:  # no candidate
+        return 0, 1
+    step = 1.0 / k["inv_step"]
+    lo = math.floor((nearest - half_span - k["first_range"]) / step - k["doppler_bins"]) - 2
+    hi = math.ceil((farthest + half_span - k["first_range"]) / step + k["doppler_bins"]) + 3
+    lo, hi = min(max(lo, 0), last - 1), min(max(hi, 1), last)
+    return lo, max(hi - lo, 1)
 
 
 def packet_buffer(sweeps: int, bins: int, integer: bool) -> Any:
@@ -451,8 +472,10 @@ MIN_PACKET_SWEEPS = 16
 def add_packets(packets: Any, k: Constants, sweeps: int, bins: int, re: Any, im: Any,
                 units: float | None) -> None:
     """Fold the packets of :func:`block_trace` into the histogram ``re + j im`` (order 0):
-    bin ``j`` of sweep ``s`` gets the lower half of packet ``(s, j)`` and the upper half of
-    packet ``(s, j - 1)`` (no deposit reaches past the last bin: ``lower < bins - 1``).
+    ``bins`` (``k["bin_width"]``) packets per sweep from bin ``k["bin_lo"]``
+    (:func:`packet_window`); bin ``bin_lo + j`` of sweep ``s`` gets the lower half of packet
+    ``(s, j)`` and the upper half of packet ``(s, j - 1)`` (no deposit reaches past the last
+    bin: ``lower < bins - 1``).
 
     Integer packets (``units`` fixed-point units per amplitude unit) hold exact sums of the
     deposits, each rounded to one unit (~1e-12 of the amplitude bound; the deposits themselves
@@ -461,12 +484,13 @@ def add_packets(packets: Any, k: Constants, sweeps: int, bins: int, re: Any, im:
     (docs/integrator.md §"Performance")."""
     u32, f64 = mi.UInt32, mi.Float64
     packet = _packet_type(units is not None)
-    idx = dr.arange(u32, sweeps * bins)
-    row = idx // k["bins"]
-    j = idx - row * k["bins"]
-    own = dr.gather(packet, packets, idx)  # its lower half: bin j
-    below = dr.gather(packet, packets, idx - 1, j > 0)  # packet (s, j - 1): its upper half
-    target = row * k["sweep_stride"] + j
+    idx = dr.arange(u32, sweeps * (bins + 1))  # bins + 1 histogram bins per packet row
+    row = idx // (k["bin_width"] + 1)
+    j = idx - row * (k["bin_width"] + 1)
+    flat = row * k["bin_width"] + j  # packet (s, j)
+    own = dr.gather(packet, packets, flat, j < k["bin_width"])  # its lower half: bin j
+    below = dr.gather(packet, packets, flat - 1, j > 0)  # packet (s, j - 1): its upper half
+    target = row * k["sweep_stride"] + k["bin_lo"] + j
     for part, out in ((0, re), (1, im)):
         if units is None:
             value = f64(own[part]) + f64(below[part + 2])

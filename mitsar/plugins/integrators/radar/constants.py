@@ -31,7 +31,7 @@ BACKSCATTER_FLOATS = ("fc", "chirp_rate", "first_range", "inv_step", "last_lower
                       "mid_turn", "mid_time", "slab_half")
 """Float64 constants of the backscatter kernels."""
 
-UINTS = ("sweep_stride", "bins", "first", "sweeps", "blocks", "width")
+UINTS = ("sweep_stride", "bins", "first", "sweeps", "blocks", "width", "bin_lo", "bin_width")
 """UInt32 constants of every kernel."""
 
 MULTIPATH_FLOATS = ("fc", "chirp_rate", "first_range", "inv_step", "last_lower", "beta_az",
@@ -117,6 +117,8 @@ def backscatter_constants(radar: Radar, config: RadarIntegratorConfig, grid: tup
         "sweeps": 1,
         "blocks": 1,
         "width": 0,
+        "bin_lo": 0,
+        "bin_width": bins,
     }
 
 
