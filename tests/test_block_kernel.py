@@ -99,7 +99,7 @@ def test_chunk_steps_detect_uniform_motion():
         geometry = sweep_geometry(RADAR, track, LOOK, count)
         frames = antenna_frame(LOOK, *geometry["attitude"].T)
         chosen = np.arange(64) + (0 if uniform else TURNING.start)
-        arrays, found = chunk_step_arrays(geometry, frames, chosen)
+        arrays, found, _ = chunk_step_arrays(geometry, frames, chosen)
         assert found == uniform
         if uniform:  # 0.5 m/s at PRF 250 Hz
             np.testing.assert_allclose(np.asarray(arrays["stepx"])[0], 0.5 / RADAR.prf,

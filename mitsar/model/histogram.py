@@ -146,8 +146,9 @@ def deposit_cycles(delay: Any, radar: Radar, rvp: Any = 1.0) -> Any:
 
 
 def carrier_cycles_per_metre(radar: Radar) -> Any:
-    """``2 f_c / c`` [cycles/m]: the carrier term of :func:`deposit_cycles` per metre of one-way
-    range (the linear part of :func:`deposit_cycles_change`)."""
+    """``2 f_c / c`` [cycles/m]: the carrier term ``f_c tau_0`` of :func:`deposit_cycles` (paper
+    eq. 1, docs/design.md §5.5) per metre of one-way range, ``tau_0 = 2R/c`` (the linear part
+    of :func:`deposit_cycles_change`)."""
     return (2.0 / SPEED_OF_LIGHT) * radar.carrier_frequency
 
 

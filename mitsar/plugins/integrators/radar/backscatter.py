@@ -40,10 +40,9 @@ from mitsar.model.geometry.visibility import (
 )
 from mitsar.model.radar import Radar
 from mitsar.plugins.integrators.radar.blocks import (
-    MAX_CHUNK_SWEEPS,
-    MAX_HALF_SPAN,
     add_packets,
     amplitude_polynomial_holds,
+    block_kernel_applies,
     block_trace,
     deposit_runs,
     fixed_point_scale,
@@ -54,6 +53,7 @@ from mitsar.plugins.integrators.radar.blocks import (
 from mitsar.plugins.integrators.radar.config import RadarIntegratorConfig
 from mitsar.plugins.integrators.radar.constants import (
     BACKSCATTER_FLOATS,
+    MAX_CHUNK_SWEEPS,
     Constants,
     backscatter_sweep_arrays,
     chunk_bounds,
@@ -321,7 +321,7 @@ def backscatter_chunk(scene: Any, device: dict, geometry: dict, frames: NDArray,
     # serves static 3D scatterer sets with shared shadow rays; moving sets, the 2D mode and a
     # ray per sweep keep the lane kernels. Its probes share the rays at block boundaries unless
     # the caller caps the blocks (e.g. at scene changes).
-    blocked = (config.block_kernel and device["static"] and not sw["planar"]
+    blocked = (block_kernel_applies(config, device["static"], sw["planar"])
                and len(chosen) <= MAX_CHUNK_SWEEPS)
     shared = blocked and visibility_block is None
     blocks = visibility_blocks(motion, float(config.visibility_feature),
@@ -344,19 +344,16 @@ def backscatter_chunk(scene: Any, device: dict, geometry: dict, frames: NDArray,
     statistics["pairs"] += count * len(chosen)
     statistics["candidate_pairs"] += width_found * len(chosen)
     exact = deterministic()  # integer packets: the same bits on any number of threads
-    positions = geometry["position"][chosen]
-    half_span = float(np.linalg.norm(positions - positions[len(chosen) // 2], axis=1).max())
+    packets = None
     if blocked and reuse:
+        steps, uniform, half_span = chunk_step_arrays(geometry, frames, chosen)
         # The packets cover the bins the candidates can reach (their ranges at the middle
         # sweep, the antenna's excursion, the Doppler shift and two bins of float32 slack).
         k["bin_lo"], k["bin_width"] = packet_window(
             float(nearest[0]), float(farthest[0]), half_span, k)
-    packets = (packet_buffer(len(chosen), k["bin_width"], exact) if blocked and reuse
-               else None)
+        packets = packet_buffer(len(chosen), k["bin_width"], exact)
     if packets is not None:
-        steps, uniform = chunk_step_arrays(geometry, frames, chosen)
         sw.update(steps)
-        uniform = uniform and half_span <= MAX_HALF_SPAN * (1.0 + 1e-9)  # else float64 path
         polynomial = uniform and amplitude_polynomial_holds(half_span, float(nearest[0]),
                                                             radar)
         units = fixed_point_scale(device, k) if exact else None

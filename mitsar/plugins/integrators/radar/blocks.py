@@ -24,7 +24,10 @@ from mitsar.model.doublelobe import TABLE_SIZE, interp_theta_table
 from mitsar.model.geometry.antenna import field_pattern
 from mitsar.model.radar import SPEED_OF_LIGHT
 from mitsar.plugins.integrators.radar.config import histogram_buffer_length
-from mitsar.plugins.integrators.radar.constants import Constants
+from mitsar.plugins.integrators.radar.constants import (
+    MAX_HALF_SPAN,
+    Constants,
+)
 from mitsar.plugins.ops import DRJIT_OPS, sincos_turns
 
 
@@ -93,16 +96,12 @@ interpolant holds the two-way field pattern sinc²(u/β) to -86 dB of its peak a
 in the beam cull (tests/test_block_kernel.py); nearer chunks evaluate the amplitude exactly per
 sweep (docs/integrator.md §"Performance")."""
 
-MAX_CHUNK_SWEEPS = 128
-"""Sweeps of a chunk the block kernel traces: one bit each in a lane's two UInt64 words of
-sweep masks."""
-
-MAX_HALF_SPAN = 0.15
-"""Largest antenna displacement from a chunk's anchor sweep for the float32 advance [m] (the
-paper's 2 mm per sweep: 128 sweeps hold 0.128 m). The phase's remainder after its exact linear
-ramp is at most ``(2 f_c/c) span² / (2 R)``: ~7 cycles at 5 m, rounded to ~1e-6 cycles
-(docs/integrator.md §"Performance"); faster platforms get shorter chunks
-(:func:`block_chunk_sweeps`), and chunks beyond it take the float64 path."""
+def block_kernel_applies(config: Any, static: bool, planar: bool) -> bool:
+    """Whether the block kernel traces direct backscatter (docs/integrator.md §"Performance"):
+    asked for (``config.block_kernel``), a static scatterer set, the 3-D mode and shadow rays
+    shared by blocks of sweeps (``config.visibility_feature > 0``)."""
+    return bool(config.block_kernel and static and not planar
+                and config.visibility_feature > 0.0)
 
 
 def block_chunk_sweeps(sweeps: int, bins: int, positions: Any) -> int:
@@ -301,7 +300,7 @@ def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, w
                                    offset=offset) * weight
         return one_way * dr.sqrt(sigma) * dr.select(scale > 0.0, scale * inv * inv, 1.0)
 
-    carrier = k.f32("fc") * (2.0 / SPEED_OF_LIGHT)  # hg.carrier_cycles_per_metre [cycles/m]
+    carrier = hg.carrier_cycles_per_metre(radar32)  # [cycles/m]
     if uniform:
         o0f = mi.Vector3f(*(f32(c) for c in o0))
         step64 = [dr.gather(f64, sw[f"step{a}"], 0) for a in "xyz"]
@@ -469,10 +468,10 @@ MIN_PACKET_SWEEPS = 16
 (:data:`PACKET_BUFFER_LIMIT`): about one visibility block at 2 mm per sweep and 3 cm."""
 
 
-def add_packets(packets: Any, k: Constants, sweeps: int, bins: int, re: Any, im: Any,
+def add_packets(packets: Any, k: Constants, sweeps: int, width: int, re: Any, im: Any,
                 units: float | None) -> None:
     """Fold the packets of :func:`block_trace` into the histogram ``re + j im`` (order 0):
-    ``bins`` (``k["bin_width"]``) packets per sweep from bin ``k["bin_lo"]``
+    ``width`` (``k["bin_width"]``) packets per sweep from bin ``k["bin_lo"]``
     (:func:`packet_window`); bin ``bin_lo + j`` of sweep ``s`` gets the lower half of packet
     ``(s, j)`` and the upper half of packet ``(s, j - 1)`` (no deposit reaches past the last
     bin: ``lower < bins - 1``).
@@ -484,7 +483,7 @@ def add_packets(packets: Any, k: Constants, sweeps: int, bins: int, re: Any, im:
     (docs/integrator.md §"Performance")."""
     u32, f64 = mi.UInt32, mi.Float64
     packet = _packet_type(units is not None)
-    idx = dr.arange(u32, sweeps * (bins + 1))  # bins + 1 histogram bins per packet row
+    idx = dr.arange(u32, sweeps * (width + 1))  # width + 1 histogram bins per packet row
     row = idx // (k["bin_width"] + 1)
     j = idx - row * (k["bin_width"] + 1)
     flat = row * k["bin_width"] + j  # packet (s, j)

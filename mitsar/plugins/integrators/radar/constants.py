@@ -201,7 +201,7 @@ def visibility_block_arrays(blocks: NDArray) -> dict:
     _upload(sw, "block_of", mi.UInt32, blocks[_padded(index)].astype(np.uint32))
     _upload(sw, "block_first", mi.UInt32, _padded(first).astype(np.uint32))
     _upload(sw, "block_last", mi.UInt32, _padded(last).astype(np.uint32))
-    if len(blocks) <= 128:
+    if len(blocks) <= MAX_CHUNK_SWEEPS:
         bits = [sum(1 << int(s) for s in range(f, e + 1)) for f, e in zip(first, last,
                                                                           strict=True)]
         for word in range(2):
@@ -223,42 +223,61 @@ def shared_probe_arrays(sweeps: NDArray, first: NDArray, end: NDArray) -> dict:
     return sw
 
 
+MAX_CHUNK_SWEEPS = 128
+"""Sweeps of a chunk the block kernel traces: one bit each in a lane's two UInt64 words of
+sweep masks (:func:`visibility_block_arrays`)."""
+
+MAX_HALF_SPAN = 0.15
+"""Largest antenna displacement from a chunk's anchor sweep for the float32 advance [m] (the
+paper's 2 mm per sweep: 128 sweeps hold 0.128 m). The phase's remainder after its exact linear
+ramp is at most ``(2 f_c/c) span² / (2 R)``: ~7 cycles at 5 m, rounded to ~1e-6 cycles
+(docs/integrator.md §"Performance"); faster platforms get shorter chunks
+(:func:`~.blocks.block_chunk_sweeps`), and chunks beyond it take the float64 path
+(:func:`chunk_step_arrays`)."""
+
 UNIFORM_TOLERANCES = (1e-9, 1e-7, 1e-6)
 """Largest deviation of a chunk from uniform motion that :func:`chunk_step_arrays` accepts:
 antenna position from ``p_a + (s - a) step`` [m] (a phase error below 4e-6 rad at 94 GHz),
 antenna frame entries [-] and velocity [m/s] from their values at the anchor sweep ``a``."""
 
 
-def chunk_step_arrays(geometry: dict, frames: NDArray, chosen: NDArray) -> tuple[dict, bool]:
-    """Antenna step per sweep over a chunk, and whether the chunk moves uniformly.
+def chunk_step_arrays(geometry: dict, frames: NDArray, chosen: NDArray
+                      ) -> tuple[dict, bool, float]:
+    """Antenna step per sweep over a chunk, whether the block kernel may advance it in float32,
+    and how far the antenna moves from the anchor.
 
     The block kernel (:func:`~.blocks.block_trace`) advances every sweep ``s`` of a chunk from
     its middle sweep ``a = len // 2`` by ``p_s = p_a + (s - a) step``, ``step = (p_last -
     p_first) / (len - 1)``, with the frame and velocity of the anchor, when the chunk satisfies
     that to :data:`UNIFORM_TOLERANCES` (a straight track at constant speed and attitude, as the
-    paper flies); otherwise it gathers them per sweep.
+    paper flies) and stays within :data:`MAX_HALF_SPAN` of the anchor; otherwise it gathers
+    them per sweep and takes the range in float64.
 
     Returns
     -------
     dict
         ``stepx``, ``stepy``, ``stepz``: Float64 (padded) [m].
     bool
-        True if the chunk is uniform.
+        True if the chunk is uniform (float32 advance).
+    float
+        Largest antenna displacement from the anchor sweep [m].
     """
     pos, vel = geometry["position"][chosen], geometry["velocity"][chosen]
     rot = frames[chosen]
     anchor = len(chosen) // 2
     step = (pos[-1] - pos[0]) / max(len(chosen) - 1, 1)
     j = np.arange(len(chosen)) - anchor
+    half_span = float(np.linalg.norm(pos - pos[anchor], axis=1).max())
     tol_p, tol_f, tol_v = UNIFORM_TOLERANCES
     uniform = bool(np.abs(pos - pos[anchor] - j[:, None] * step).max() <= tol_p
                    and np.abs(rot - rot[anchor]).max() <= tol_f
-                   and np.abs(vel - vel[anchor]).max() <= tol_v)
+                   and np.abs(vel - vel[anchor]).max() <= tol_v
+                   and half_span <= MAX_HALF_SPAN * (1.0 + 1e-9))
     sw: dict = {}
     for i, axis in enumerate("xyz"):
         _upload(sw, "step" + axis, mi.Float64, _padded(step[i:i + 1]))
     dr.make_opaque(*sw.values())
-    return sw, uniform
+    return sw, uniform, half_span
 
 
 def multipath_sweep_arrays(geometry: dict, frames: NDArray, setup: Any, chosen: NDArray
