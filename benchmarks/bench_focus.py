@@ -24,7 +24,7 @@ import mitsar
 from mitsar.focus.aperture import aperture_half_width
 from mitsar.focus.grid import SlantGrid
 from mitsar.focus.spectral import prepare_spectrum
-from mitsar.raw.product import radar_of
+from mitsar.products.raw import radar_of
 
 
 def best_time(function, repeat: int) -> float:

@@ -22,7 +22,7 @@ from mitsar.export import (
 from mitsar.export.phase_history import dechirped_samples, fx_phase_history
 from mitsar.io import OutputExistsError
 from mitsar.model.radar import SPEED_OF_LIGHT as C
-from mitsar.raw.product import radar_of
+from mitsar.products.raw import radar_of
 
 sksicd = pytest.importorskip("sarkit.sicd", reason="needs sarkit (pip install mitsar[nga])")
 skver = pytest.importorskip("sarkit.verification")

@@ -16,6 +16,7 @@ RANKS = {
     "mitsar.errors": 0, "mitsar.version": 0,
     "mitsar.checks": 1, "mitsar.budget": 1, "mitsar.backend": 1, "mitsar.io": 1,
     "mitsar.model": 2,
+    "mitsar.products": 2.5,
     "mitsar.scene": 3,
     "mitsar.plugins": 4,
     "mitsar.raw": 5,

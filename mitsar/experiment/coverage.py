@@ -24,7 +24,8 @@ from mitsar.focus.aperture import aperture_half_width, is_uniform_straight_track
 from mitsar.focus.grid import SlantGrid, equivalent_position
 from mitsar.model.geometry.navigation import resolve_navigation
 from mitsar.model.signal import sweep_count
-from mitsar.raw.product import require_raw_memory, sweep_geometry, track_variables
+from mitsar.products.raw import track_variables
+from mitsar.raw.product import require_raw_memory, sweep_geometry
 
 __all__ = ["SAME_GRID_ANY_TRACK", "check_target_in_grid", "grid_layout", "target_axes"]
 

@@ -48,7 +48,7 @@ from mitsar.io import ProductFileError, atomic_writer
 from mitsar.model.geometry.attitude import Look
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
 from mitsar.model.signal import fast_time
-from mitsar.raw.product import make_raw_product, radar_of
+from mitsar.products.raw import make_raw_product, radar_of
 from mitsar.raw.recorded import raw_from_arrays
 from mitsar.version import __version__
 

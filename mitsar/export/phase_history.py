@@ -46,7 +46,7 @@ from mitsar.focus.aperture import doppler_geometry
 from mitsar.focus.motion import doppler_centroid, is_straight_track, motion_correction_phase
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
 from mitsar.model.signal import fast_time
-from mitsar.raw.product import radar_of
+from mitsar.products.raw import radar_of
 
 __all__ = ["MOTION_MODES", "PhaseHistory", "dechirped_samples", "fx_phase_history",
            "motion_phase", "motion_shift", "remove_motion", "restore_motion", "rvp_filter",

@@ -35,7 +35,7 @@ from mitsar.focus.grid import track_frame
 from mitsar.focus.windows import window_coefficients
 from mitsar.model.radar import Radar
 from mitsar.model.signal import fast_time
-from mitsar.raw.product import radar_of
+from mitsar.products.raw import radar_of
 
 __all__ = ["Prepared", "aperture_weights", "beat_band", "normalise", "prepare"]
 

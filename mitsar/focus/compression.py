@@ -20,7 +20,7 @@ from scipy import fft as sp_fft
 from mitsar.errors import ParameterError
 from mitsar.focus.windows import window_samples
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
-from mitsar.raw.product import radar_of
+from mitsar.products.raw import radar_of
 
 
 def range_spectrum(samples: NDArray, radar: Radar, *, window: str = "rect",

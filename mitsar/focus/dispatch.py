@@ -1,6 +1,6 @@
 """The one entry point of image formation: :func:`focus` checks, picks the algorithm, assembles.
 
-Every algorithm writes the same image product (:mod:`mitsar.focus.image`) on the same grids, so
+Every algorithm writes the same image product (:mod:`mitsar.products.image`) on the same grids, so
 images compare pixel for pixel.
 """
 
@@ -17,14 +17,14 @@ from mitsar.focus.bpa import focus_bpa
 from mitsar.focus.ffbp import focus_ffbp
 from mitsar.focus.frequency_domain import focus_frequency_domain
 from mitsar.focus.grid import Grid, SlantGrid, from_dict
-from mitsar.focus.image import make_image_product
 from mitsar.focus.mocomp import compensate, reference_line, reference_product
 from mitsar.focus.motion import is_straight_track
 from mitsar.focus.nesz import noise_variables
 from mitsar.focus.referenced import focus_referenced
 from mitsar.focus.windows import WINDOWS
 from mitsar.model.radar import Radar
-from mitsar.raw.product import radar_of
+from mitsar.products.image import make_image_product
+from mitsar.products.raw import radar_of
 
 ALGORITHMS = ("bpa", "rda", "wda", "fsa", "ffbp")
 """Names of the focusing algorithms."""

@@ -91,7 +91,7 @@ from mitsar.focus.ffbp_stages import (
 )
 from mitsar.focus.grid import track_frame
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
-from mitsar.raw.product import radar_of
+from mitsar.products.raw import radar_of
 
 __all__ = ["FFBP_DEFAULTS", "focus_ffbp"]
 

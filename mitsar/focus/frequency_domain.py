@@ -24,7 +24,7 @@ from mitsar.focus.fsa import focus_fsa
 from mitsar.focus.rda import focus_rda
 from mitsar.focus.spectral import Spectrum, prepare_spectrum
 from mitsar.focus.wda import focus_wda
-from mitsar.raw.product import radar_of
+from mitsar.products.raw import radar_of
 
 __all__ = ["ALGORITHM_OPTIONS", "FOCUSERS", "aperture_coverage", "focus_frequency_domain"]
 

@@ -29,7 +29,7 @@ from mitsar.model.geometry.antenna import two_way_pattern
 from mitsar.model.geometry.attitude import antenna_frame
 from mitsar.model.noise import focused_noise_power, noise_equivalent_sigma0, window_noise_bandwidth
 from mitsar.model.signal import radar_equation_amplitude
-from mitsar.raw.product import look_of, radar_of
+from mitsar.products.raw import look_of, radar_of
 
 __all__ = ["APERTURE_NODES", "noise_variables", "unit_peak_amplitude"]
 

@@ -27,7 +27,7 @@ from mitsar.focus.aperture import aperture_resolution
 from mitsar.focus.backprojection import backproject_referenced
 from mitsar.focus.compression import range_spectrum
 from mitsar.focus.windows import evaluate_window, window_coefficients
-from mitsar.raw.product import radar_of
+from mitsar.products.raw import radar_of
 
 __all__ = ["focus_referenced"]
 

@@ -22,7 +22,7 @@ from matplotlib.figure import Figure
 
 from mitsar.model.geometry.attitude import antenna_frame
 from mitsar.plots import products  # noqa: F401 - selects the Agg backend first
-from mitsar.raw.product import look_of, radar_of
+from mitsar.products.raw import look_of, radar_of
 from mitsar.scene.footprint import beam_footprint, beam_marks
 from mitsar.scene.surfaces import sample_surface_points
 

@@ -19,7 +19,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from mitsar.errors import ParameterError
 from mitsar.plots import products  # noqa: F401 - selects the Agg backend first
-from mitsar.raw.product import radar_of
+from mitsar.products.raw import radar_of
 
 __all__ = ["detrend", "navigation_phase", "plot_phase", "plot_tracks"]
 

@@ -39,7 +39,7 @@ from mitsar.focus.compression import range_compress  # noqa: E402
 from mitsar.focus.grid import equivalent_position  # noqa: E402
 from mitsar.io import atomic_output, check_writable, load  # noqa: E402
 from mitsar.model.geometry.attitude import Look, boresight  # noqa: E402
-from mitsar.raw.product import radar_of  # noqa: E402
+from mitsar.products.raw import radar_of  # noqa: E402
 
 __all__ = [
     "plot_background_histograms",

@@ -43,7 +43,8 @@ from mitsar.model.signal import (
     two_way_delay,
 )
 from mitsar.model.targets import Background, PointTarget
-from mitsar.raw.product import make_raw_product, require_raw_memory, sweep_geometry
+from mitsar.products.raw import make_raw_product
+from mitsar.raw.product import require_raw_memory, sweep_geometry
 
 STREAM_KERNEL_LANES = 2**16
 """Samples per kernel launch of :func:`stream_point_targets` (about 60 bytes each in the

@@ -29,7 +29,6 @@ attributes
 
 from __future__ import annotations
 
-import json
 import warnings
 from collections.abc import Sequence
 from typing import Any
@@ -49,16 +48,14 @@ from mitsar.model.noise import check_noise, thermal_noise
 from mitsar.model.radar import Radar
 from mitsar.model.targets import Background, PointTarget
 from mitsar.plugins.integrators.radar import make_setup
-from mitsar.raw.analytic import simulate_point_targets
-from mitsar.raw.product import (
-    look_of,
-    make_raw_product,
-    radar_of,
-    track_geometry,
-    track_variables,
+from mitsar.products.histogram import (
+    make_histogram_product,
+    raw_from_histogram,
+    validate_histogram,
 )
+from mitsar.products.raw import make_raw_product, radar_of
+from mitsar.raw.analytic import simulate_point_targets
 from mitsar.raw.trace_run import TraceRun
-from mitsar.version import __version__
 
 __all__ = ["histogram_to_raw_product", "simulate_scene", "trace", "trace_paths"]
 
@@ -182,8 +179,11 @@ def trace(radar: Radar, trajectory: Trajectory, look: Look, scene: Any, *,
     for chosen, hist in run.chunks(rvp, normalized, progress):
         indices.append(chosen)
         parts.append(hist)
-    return _histogram_product(np.concatenate(parts, axis=0), run, np.concatenate(indices), rvp,
-                              normalized)
+    sweeps = np.concatenate(indices)
+    return make_histogram_product(
+        np.concatenate(parts, axis=0), run.radar, run.look, sweeps, run.ranges,
+        *run.geometry_of(sweeps), rvp=rvp, normalized=normalized,
+        first_index=int(run.grid[0]), attrs=run.attrs())
 
 
 def _multipath_options(max_depth: Any, rays: Any, ray_cover: Any, capture: Any, ghosts: Any,
@@ -299,37 +299,6 @@ def _setup_for(run: TraceRun, config: Any) -> Any:
     return make_setup(run.radar, run.frames, config, run.setup.receiver_offset, rx_frames)
 
 
-def _histogram_product(histogram: NDArray, run: TraceRun, sweeps: NDArray,
-                       rvp: bool, normalized: bool) -> xr.Dataset:
-    geometry = run.geometry_of(sweeps)[0]
-    data = xr.Dataset(
-        {
-            "histogram": (("sweep", "order", "bin"), histogram,
-                          {"units": "sqrt(W)", "long_name": "complex range histogram"}),
-            **track_variables(*run.geometry_of(sweeps)),
-        },
-        coords={
-            "sweep": sweeps,
-            "order": np.arange(histogram.shape[1]),
-            "bin": np.arange(histogram.shape[2]),
-            "apparent_range": ("bin", run.ranges, {"units": "m", "long_name":
-                                                   "apparent range c f / (2K)"}),
-            "slow_time": ("sweep", geometry["slow_time"], {"units": "s",
-                                                          "long_name": "sweep start time"}),
-            "xyz": ["x", "y", "z"],
-            "angle": ["heading", "pitch", "roll"],
-        },
-    )
-    data.attrs.update(run.radar.to_attrs())
-    data.attrs.update(product="histogram", look_off_nadir_deg=run.look.off_nadir_deg,
-                      look_squint_deg=run.look.squint_deg, rvp=int(rvp),
-                      normalized=int(normalized), histogram_first_index=int(run.grid[0]),
-                      mitsar_version=__version__)
-    for key, value in run.attrs().items():
-        data.attrs[key] = json.dumps(value) if isinstance(value, dict | list) else value
-    return data
-
-
 def _order_mask(where: str, orders: Any, available: NDArray) -> NDArray[np.bool_]:
     if orders is None:
         return np.ones(len(available), dtype=bool)
@@ -352,29 +321,14 @@ def histogram_to_raw_product(histogram: xr.Dataset, orders: Any = None) -> xr.Da
     Returns
     -------
     xarray.Dataset
-        Raw product (:mod:`mitsar.raw.product`).
+        Raw product (:mod:`mitsar.products.raw`).
     """
-    if histogram.attrs.get("product") != "histogram":
-        raise ParameterError("histogram_to_raw_product", "histogram",
-                             "a histogram product (attribute product='histogram')",
-                             histogram.attrs.get("product"))
+    validate_histogram(histogram, "histogram_to_raw_product")
     radar = radar_of(histogram)
     mask = _order_mask("histogram_to_raw_product", orders, histogram["order"].values)
     summed = histogram["histogram"].values[:, mask, :].sum(axis=1)
     samples = hg.histogram_to_raw(summed, histogram["apparent_range"].values, radar)
-
-    attrs = {key: histogram.attrs[key] for key in (
-        "seed", "normalized", "scatterer_count", "point_target_count", "scatterer_density",
-        "bins_per_cell", "integrator", "scene", "trajectory_kind", "trajectory_straight",
-        "config") if key in histogram.attrs}
-    attrs.update({key: value for key, value in histogram.attrs.items()
-                  if key.startswith(("traced_", "physical_optics_", "motion"))})
-    attrs.update(simulator="ray tracing (radar integrator)",
-                 orders=[int(o) for o in histogram["order"].values[mask]])
-    product = make_raw_product(samples, radar, look_of(histogram), track_geometry(histogram),
-                               rvp=bool(histogram.attrs.get("rvp", 1)), attrs=attrs,
-                               true_geometry=track_geometry(histogram, "true_"))
-    return product.assign_coords(sweep=histogram["sweep"].values)
+    return raw_from_histogram(histogram, samples, histogram["order"].values[mask])
 
 
 def simulate_scene(radar: Radar, trajectory: Trajectory, look: Look, scene: Any, *,
@@ -431,7 +385,7 @@ def simulate_scene(radar: Radar, trajectory: Trajectory, look: Look, scene: Any,
     Returns
     -------
     xarray.Dataset
-        Raw product (:mod:`mitsar.raw.product`).
+        Raw product (:mod:`mitsar.products.raw`).
     """
     run = TraceRun("simulate_scene", radar, trajectory, look, scene, density, seed, sweeps,
                chunk_lanes, bins_per_cell, beam_cull, scene_params,

@@ -36,7 +36,7 @@ from mitsar.focus.compression import range_spectrum
 from mitsar.focus.windows import evaluate_window, window_coefficients
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
 from mitsar.model.signal import beat_frequency
-from mitsar.raw.product import radar_of
+from mitsar.products.raw import radar_of
 
 __all__ = ["PulseData", "PulseSettings", "aperture_weights", "azimuth_directions",
            "carrier_phase", "contributions", "pulse_data"]
