@@ -16,6 +16,7 @@ from mitsar.model.geometry.navigation import NavigationErrors, Vibration
 from mitsar.model.geometry.trajectory import Trajectory
 from mitsar.model.radar import Radar
 from mitsar.model.targets import Background, PointTarget
+from mitsar.model.trace_options import TraceOptions
 from mitsar.quality.impulse import measure_impulse_response
 from mitsar.raw.analytic import simulate_point_targets
 from mitsar.raw.recorded import raw_from_arrays, read_gotcha, read_raw
@@ -27,5 +28,5 @@ __all__ = [
     "Radar", "Trajectory", "Vibration", "__version__", "ambiguity", "boresight", "focus", "grid",
     "histogram_to_raw_product", "load", "measure_impulse_response", "range_compress",
     "raw_from_arrays", "read_cphd", "read_gotcha", "read_raw", "save", "simulate_point_targets",
-    "simulate_scene", "trace",
+    "simulate_scene", "trace", "TraceOptions",
 ]

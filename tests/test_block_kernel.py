@@ -154,8 +154,8 @@ def test_capped_blocks_keep_their_own_probes():
     gets the block kernel with a probe pair per block (no ray shared across the cap), same
     data as the lane kernels with the same cap."""
     track = mitsar.Trajectory.linear(START, [0.5, 0.0, 0.0], 40.5 / RADAR.prf)
-    run = TraceRun("test", RADAR, track, LOOK, load_scene("control_volume"), 60.0, 1, None,
-                   None, None, None, None)
+    run = TraceRun("test", RADAR, track, LOOK, load_scene("control_volume"),
+                   mitsar.TraceOptions(scatterer_density=60.0, seed=1))
     common = (run.scene, run.geometry, run.radar, run.frames, run.scatterers, run.grid)
 
     def traced(block_kernel):

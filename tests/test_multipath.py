@@ -445,7 +445,8 @@ def test_ghost_amplitude_matches_the_ray_tube_formula(tmp_path):
     from mitsar.model.doublelobe import DoubleLobe
     from mitsar.model.geometry.antenna import direction_sines, one_way_pattern
     from mitsar.model.geometry.attitude import antenna_frame
-    from mitsar.plugins.integrators.radar import RadarIntegratorConfig, make_setup
+    from mitsar.model.trace_options import TraceOptions
+    from mitsar.plugins.integrators.radar import make_setup
 
     floor = ('<shape type="rectangle" id="floor"><transform name="to_world"><scale x="5" '
              'y="5"/></transform><bsdf type="doublelobe"><string name="preset" value="mirror"/>'
@@ -475,8 +476,8 @@ def test_ghost_amplitude_matches_the_ray_tube_formula(tmp_path):
     u_az, u_el, _ = direction_sines(-back / np.linalg.norm(back), frame)
     receive = float(one_way_pattern(u_az, u_el, RADAR.azimuth_beamwidth,
                                     RADAR.elevation_beamwidth))
-    setup = make_setup(RADAR, frame[None], RadarIntegratorConfig(
-        max_depth=2, rays=1, plane_normal=(1.0, 0, 0), slab_width=slab))
+    setup = make_setup(RADAR, frame[None], TraceOptions(
+        max_depth=2, rays=1, plane_normal=(1.0, 0, 0), slab_width=slab).resolve())
     expected = mp.tube_scatter_power(RADAR, 1.0, 1.0, setup.rays.dq * slab / distance, sigma0,
                                      abs(up @ wall_normal), np.linalg.norm(back), receive)
     assert 10 * math.log10(traced / expected) == pytest.approx(0.0, abs=0.05)

@@ -10,7 +10,7 @@ import pytest
 import mitsar
 from mitsar.errors import ParameterError
 from mitsar.model.geometry.visibility import sight_line_motion, visibility_blocks
-from mitsar.plugins.integrators.radar.config import RadarIntegratorConfig
+from mitsar.model.trace_options import TraceOptions
 from mitsar.raw.traced import histogram_to_raw_product, trace
 from mitsar.scene import load_scene
 
@@ -52,8 +52,8 @@ def test_blocks_are_the_longest_runs_within_the_feature_width_and_the_cap():
 
 def test_visibility_feature_is_validated():
     with pytest.raises(ParameterError, match="visibility_feature"):
-        RadarIntegratorConfig(visibility_feature=-0.01)
-    assert RadarIntegratorConfig().replace(visibility_feature=0).visibility_feature == 0.0
+        TraceOptions(visibility_feature=-0.01).resolve()
+    assert TraceOptions().replace(visibility_feature=0).resolve().visibility_feature == 0.0
 
 
 # --- the paper's room ---------------------------------------------------------------------------

@@ -8,11 +8,11 @@ Configuration (:mod:`~mitsar.experiment.options`, read and validated by
 
 from mitsar.experiment.examples import example_path, examples_dir
 from mitsar.experiment.loading import experiment_from_dict, load_experiment, load_grid
-from mitsar.experiment.options import Experiment, FocusOptions, MetricsOptions, SimulationOptions
+from mitsar.experiment.options import Experiment, FocusOptions, MetricsOptions
 from mitsar.experiment.runs import run_focus, run_metrics, run_simulation
 
 __all__ = [
-    "Experiment", "FocusOptions", "MetricsOptions", "SimulationOptions", "example_path",
+    "Experiment", "FocusOptions", "MetricsOptions", "example_path",
     "examples_dir", "experiment_from_dict", "load_experiment", "load_grid", "run_focus",
     "run_metrics", "run_simulation",
 ]

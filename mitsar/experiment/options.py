@@ -1,7 +1,8 @@
 """Run configuration: what an experiment file describes, as plain validated objects.
 
 :class:`Experiment` bundles the radar, trajectory, look, targets and the options of the three
-workflow steps (:class:`SimulationOptions`, :class:`FocusOptions`, :class:`MetricsOptions`).
+workflow steps (the trace request :class:`~mitsar.model.trace_options.TraceOptions` that
+``[simulation]`` fills, :class:`FocusOptions`, :class:`MetricsOptions`).
 Reading them from TOML is :mod:`mitsar.experiment.loading`; running them is
 :mod:`mitsar.experiment.runs`.
 """
@@ -23,6 +24,7 @@ from mitsar.model.geometry.navigation import NavigationErrors
 from mitsar.model.geometry.trajectory import Trajectory
 from mitsar.model.radar import Radar
 from mitsar.model.targets import Background, PointTarget
+from mitsar.model.trace_options import TraceOptions
 from mitsar.quality.cuts import ISLR_EXTENTS as _QUALITY_EXTENTS
 
 __all__ = [
@@ -34,7 +36,6 @@ __all__ = [
     "Experiment",
     "FocusOptions",
     "MetricsOptions",
-    "SimulationOptions",
 ]
 
 ALGORITHMS = tuple(_FOCUS_ALGORITHMS)
@@ -51,61 +52,6 @@ WINDOWS = tuple(_WINDOWS)
 
 GRID_KINDS = ("slant", "plane", "points")
 """Output grid kinds accepted by ``[focus.grid] kind``."""
-
-
-@dataclass(frozen=True)
-class SimulationOptions:
-    """Options of the analytic simulator (``[simulation]``).
-
-    Attributes
-    ----------
-    seed : int
-        Seed of the background and noise draws.
-    rvp : bool
-        Keep the residual video phase in the raw data.
-    normalized : bool
-        Unit amplitude per unit RCS (paper eq. 1) instead of the radar equation.
-    noise : bool
-        Add receiver noise (needs ``radar.noise_figure_db``).
-    scatterer_density : float or None
-        Surface scatterers per m^2 for a scene (default: the integrator's, >= 9 per cell).
-    orders : list of int or None
-        Path orders kept from a scene (0: direct backscatter); default all.
-    max_depth, rays, ray_cover, ghosts, plane_normal, slab_width
-        Multipath options of a scene (:func:`mitsar.raw.traced.trace`); ``None``: the scene
-        integrator's (default: direct backscatter only, 3D).
-    physical_optics : bool or tuple of str
-        Physical-optics returns of planar facets (docs/physical_optics.md): all meshes with a
-        radar material (``True``) or the shapes with these ids.
-    visibility_feature, block_kernel
-        The tracer's shadow-ray reuse width [m] (0: a ray per sweep) and its block kernel
-        (docs/integrator.md §"Visibility reuse", §"Performance"); ``None``: the scene
-        integrator's.
-    """
-
-    seed: int = 0
-    rvp: bool = True
-    normalized: bool = False
-    noise: bool = False
-    scatterer_density: float | None = None
-    orders: tuple[int, ...] | None = None
-    max_depth: int | None = None
-    rays: int | None = None
-    ray_cover: float | None = None
-    ghosts: bool | None = None
-    plane_normal: tuple[float, float, float] | None = None
-    slab_width: float | None = None
-    physical_optics: bool | tuple[str, ...] = False
-    visibility_feature: float | None = None
-    block_kernel: bool | None = None
-
-    def multipath(self) -> dict[str, Any]:
-        """The tracer's keyword arguments of :func:`mitsar.raw.traced.simulate_scene`
-        (multipath, shadow-ray reuse, block kernel)."""
-        return {"max_depth": self.max_depth, "rays": self.rays, "ray_cover": self.ray_cover,
-                "ghosts": self.ghosts, "plane_normal": self.plane_normal,
-                "slab_width": self.slab_width, "visibility_feature": self.visibility_feature,
-                "block_kernel": self.block_kernel}
 
 
 @dataclass(frozen=True)
@@ -169,7 +115,10 @@ class Experiment:
     look : Look
     targets : list of PointTarget
     background : Background or None
-    simulation : SimulationOptions
+    simulation : TraceOptions
+        ``[simulation]``: the trace request of a scene (its seed, ``rvp``, ``normalized`` and
+        ``noise`` also drive the analytic simulator); fields the file leaves out are ``None``
+        and fall to the scene's integrator, then to the defaults.
     focus : FocusOptions
     metrics : MetricsOptions
     scene : str or None
@@ -193,7 +142,7 @@ class Experiment:
     look: Look
     targets: list[PointTarget]
     background: Background | None
-    simulation: SimulationOptions
+    simulation: TraceOptions
     focus: FocusOptions
     metrics: MetricsOptions
     scene: str | None = None

@@ -25,7 +25,6 @@ from mitsar.experiment.options import (
     WINDOWS,
     FocusOptions,
     MetricsOptions,
-    SimulationOptions,
 )
 from mitsar.experiment.table import Table, prefixed
 from mitsar.focus.aperture import MAX_AZIMUTH_RESOLUTION
@@ -35,6 +34,7 @@ from mitsar.model.geometry.navigation import NavigationErrors
 from mitsar.model.geometry.trajectory import Trajectory, is_vertical
 from mitsar.model.radar import Radar
 from mitsar.model.targets import Background, PointTarget
+from mitsar.model.trace_options import TraceOptions
 from mitsar.scene.motion import Motion
 from mitsar.scene.motion import parse_motion as parse_motion_mapping
 
@@ -258,29 +258,32 @@ def parse_background(t: Table) -> Background:
                           mode=mode, axis_u=axis_u, axis_v=axis_v)
 
 
-def parse_simulation(t: Table | None) -> SimulationOptions:
-    """``[simulation]``: seed, rvp, normalized, noise."""
+def parse_simulation(t: Table | None) -> TraceOptions:
+    """``[simulation]``: the experiment's layer of the trace request (seed, rvp, normalized,
+    noise and physical_optics always set, with their defaults; the tracer's options only where
+    the file gives them, so the rest falls to the scene's integrator)."""
     if t is None:
-        return SimulationOptions()
+        return TraceOptions(seed=0, rvp=True, normalized=False, noise=False,
+                            physical_optics=False)
     orders = t.numbers("orders", 1, None)
     if orders is not None and any(o != int(o) or o < 0 for o in orders):
         raise t.error("orders", "integers >= 0 (0: direct backscatter)", orders)
-    options = SimulationOptions(seed=_seed(t), rvp=t.boolean("rvp", True),
-                                normalized=t.boolean("normalized", False),
-                                noise=t.boolean("noise", False),
-                                scatterer_density=t.number("scatterer_density", None,
-                                                           unit="1/m^2", gt=0),
-                                orders=None if orders is None else tuple(int(o) for o in orders),
-                                max_depth=t.integer("max_depth", None, ge=1),
-                                rays=t.integer("rays", None, ge=1),
-                                ray_cover=t.number("ray_cover", None, unit="beamwidths", gt=0),
-                                ghosts=t.boolean("ghosts", None),
-                                plane_normal=t.vector("plane_normal", 3, None),
-                                slab_width=t.number("slab_width", None, unit="m", gt=0),
-                                physical_optics=_physical_optics(t),
-                                visibility_feature=t.number("visibility_feature", None,
-                                                            unit="m", ge=0),
-                                block_kernel=t.boolean("block_kernel", None))
+    options = TraceOptions(seed=_seed(t), rvp=t.boolean("rvp", True),
+                           normalized=t.boolean("normalized", False),
+                           noise=t.boolean("noise", False),
+                           scatterer_density=t.number("scatterer_density", None,
+                                                      unit="1/m^2", gt=0),
+                           orders=None if orders is None else tuple(int(o) for o in orders),
+                           max_depth=t.integer("max_depth", None, ge=1),
+                           rays=t.integer("rays", None, ge=1),
+                           ray_cover=t.number("ray_cover", None, unit="beamwidths", gt=0),
+                           ghosts=t.boolean("ghosts", None),
+                           plane_normal=t.vector("plane_normal", 3, None),
+                           slab_width=t.number("slab_width", None, unit="m", gt=0),
+                           physical_optics=_physical_optics(t),
+                           visibility_feature=t.number("visibility_feature", None,
+                                                       unit="m", ge=0),
+                           block_kernel=t.boolean("block_kernel", None))
     t.finish()
     return options
 

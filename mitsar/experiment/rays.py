@@ -18,7 +18,7 @@ from mitsar.errors import ParameterError
 from mitsar.experiment.loading import load_experiment
 from mitsar.experiment.options import Experiment
 from mitsar.io import write_json
-from mitsar.plots.products import save_figure
+from mitsar.plots.figures import save_figure
 from mitsar.plots.rays import (
     beam_marks,
     echo_profiles,
@@ -66,15 +66,14 @@ def run_rays(experiment_path: str | Path | Experiment, out: str | Path,
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     options = exp.simulation
-    hist = trace(exp.radar, exp.trajectory, exp.look, exp.scene, seed=options.seed,
-                 density=options.scatterer_density, sweeps=[sweep], **options.multipath())
+    hist = trace(exp.radar, exp.trajectory, exp.look, exp.scene, options=options,
+                 sweeps=[sweep])
     planar = options.plane_normal is not None
     count = hist.attrs["rays_per_sweep"]
     if path_rays is None:
         path_rays = count if planar else min(count, 300)
     every_ray = trace_paths(exp.radar, exp.trajectory, exp.look, exp.scene, sweep=sweep,
-                            rays=count, ray_count=options.rays, ray_cover=options.ray_cover,
-                            max_depth=options.max_depth, plane_normal=options.plane_normal)
+                            rays=count, options=options)
     paths = every_ray if path_rays >= count else every_ray.isel(
         path=np.unique(np.round(np.linspace(0, count - 1, path_rays)).astype(int)))
     marks = beam_marks(every_ray)

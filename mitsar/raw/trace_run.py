@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
@@ -20,7 +20,6 @@ from numpy.typing import NDArray
 from tqdm.auto import tqdm
 
 from mitsar.budget import require_memory
-from mitsar.checks import boolean
 from mitsar.errors import ParameterError
 from mitsar.model import histogram as hg
 from mitsar.model.geometry.attitude import Look, antenna_frame
@@ -32,6 +31,7 @@ from mitsar.model.geometry.navigation import (
 from mitsar.model.geometry.trajectory import Trajectory
 from mitsar.model.radar import Radar
 from mitsar.model.signal import sweep_count
+from mitsar.model.trace_options import TraceOptions
 from mitsar.plugins.integrators.radar import make_setup
 from mitsar.plugins.threads import deterministic_threads
 from mitsar.raw.physical_optics import FacetEchoes
@@ -72,22 +72,29 @@ class TraceRun:
     """Everything one traced acquisition needs, resolved and validated."""
 
     def __init__(self, where: str, radar: Radar, trajectory: Trajectory, look: Look, scene: Any,
-                 density: float | None, seed: int | None, sweeps: Any, chunk_lanes: int | None,
-                 bins_per_cell: int | None, beam_cull: float | None,
-                 scene_params: dict | None, multipath: dict | None = None,
-                 receiver_offset: Any = None, receiver_look: Look | None = None,
-                 backscatter: bool = True,
+                 options: TraceOptions,
                  navigation: Trajectory | NavigationErrors | None = None,
-                 motion: dict | None = None,
-                 physical_optics: bool | Sequence[str] | None = False,
-                 deterministic: bool = True) -> None:
+                 motion: dict | None = None) -> None:
+        """Resolve and validate one acquisition.
+
+        Parameters
+        ----------
+        where : str
+            The caller, for error messages.
+        radar, trajectory, look, scene, navigation, motion
+            As :func:`mitsar.raw.traced.trace`.
+        options : TraceOptions
+            The caller's layer of the trace request (its ``options=`` with its keywords over
+            them); laid over the scene integrator's layer and the defaults
+            (:mod:`mitsar.model.trace_options`) into :attr:`config`.
+        """
         if not isinstance(radar, Radar):
             raise ParameterError(where, "radar", "a mitsar.Radar", type(radar))
         if not isinstance(trajectory, Trajectory):
             raise ParameterError(where, "trajectory", "a mitsar.Trajectory", type(trajectory))
         if not isinstance(look, Look):
             raise ParameterError(where, "look", "a mitsar.Look", type(look))
-        self.deterministic = boolean(where, "deterministic", deterministic)
+        options.resolve(where)  # the caller's errors before any scene is loaded
         radar.check_prf(trajectory.max_speed())
         total = sweep_count(radar, trajectory.duration)
         if total < 1:
@@ -95,17 +102,17 @@ class TraceRun:
                                  f">= one sweep ({radar.sweep_duration:g} s)", trajectory.duration)
         require_memory(where, "trajectory.duration", 2.0 * total * GEOMETRY_BYTES_PER_SWEEP,
                        f"{total} sweeps (duration x prf): shorten the flight")
-        self.sweeps = _select_sweeps(where, sweeps, total)
+        self.sweeps = _select_sweeps(where, options.sweeps, total)
         require_raw_memory(where, radar, len(self.sweeps))
         register_plugins()
         import mitsuba as mi  # lazy: a variant is set by register_plugins just above
 
         self.scene_name = scene if isinstance(scene, str | os.PathLike) else "<mitsuba.Scene>"
-        self.scene = load_scene(scene, **(scene_params or {}))
+        self.scene = load_scene(scene, **dict(options.scene_params or {}))
         self.integrator = _radar_integrator(self.scene, mi)
-        self.config = self.integrator.config.replace(
-            where, scatterer_density=density, seed=seed, chunk_lanes=chunk_lanes,
-            bins_per_cell=bins_per_cell, beam_cull=beam_cull, **(multipath or {}))
+        # The one merge of the trace request: defaults < the scene's XML < options= < keywords
+        self.config: TraceOptions = options.over(self.integrator.options).resolve(where)
+        self.deterministic = self.config.deterministic
         self.radar, self.trajectory, self.look = radar, trajectory, look
         self.total = total
         self.geometry = sweep_geometry(radar, trajectory, look, total)
@@ -114,15 +121,15 @@ class TraceRun:
         self.recorded_geometry = (None if self.recorded is None
                                   else sweep_geometry(radar, self.recorded, look, total))
         self.frames = antenna_frame(look, *self.geometry["attitude"].T)
-        if receiver_look is not None and not isinstance(receiver_look, Look):
-            raise ParameterError(where, "receiver_look", "None or a mitsar.Look", receiver_look)
+        receiver_look = self.config.receiver_look
         rx_frames = (None if receiver_look is None
                      else antenna_frame(receiver_look, *self.geometry["attitude"].T))
-        self.setup = make_setup(radar, self.frames, self.config, receiver_offset, rx_frames)
-        self.backscatter = bool(backscatter)
+        self.setup = make_setup(radar, self.frames, self.config, self.config.receiver_offset,
+                                rx_frames)
+        self.backscatter = self.config.backscatter
         if self.setup.bistatic and self.backscatter:
             raise ParameterError(where, "backscatter", "False with a bistatic receiver (direct "
-                                 "backscatter is traced monostatically only)", backscatter)
+                                 "backscatter is traced monostatically only)", self.backscatter)
         self.receiver_look = receiver_look
         if self.backscatter:
             self.scatterers = _scene_scatterers(self.integrator, self.scene,
@@ -135,7 +142,7 @@ class TraceRun:
         if self.motion.moving:
             self.scatterers = _moving_scatterers(self.scatterers, surface_velocities(
                 self.scene, self.motion.motion))
-        facets = self._facets(where, physical_optics)
+        facets = self._facets(where, self.config.physical_optics)
         low, high = range_limits(self.scatterers, self.geometry["position"],
                                  trajectory.max_speed(), radar, trajectory.duration)
         if self.config.max_depth > 1:
@@ -178,14 +185,14 @@ class TraceRun:
         self.setup = dataclasses.replace(self.setup, absorbers=facets.shapes)
         return facets
 
-    def chunks(self, rvp: bool, normalized: bool, progress: bool
-               ) -> Iterator[tuple[NDArray, NDArray]]:
+    def chunks(self) -> Iterator[tuple[NDArray, NDArray]]:
         """(sweep indices, histograms (sweeps, orders, bins)) chunk by chunk: the tracer's,
         plus the physical-optics echoes of the same sweeps (one path for :func:`trace` and
         :func:`simulate_scene`). Deterministic runs trace on one Dr.Jit thread
         (:func:`mitsar.plugins.threads.deterministic_threads`)."""
         with deterministic_threads(self.deterministic):
-            yield from self._chunks(rvp, normalized, progress)
+            yield from self._chunks(self.config.rvp, self.config.normalized,
+                                    self.config.progress)
 
     def _chunks(self, rvp: bool, normalized: bool, progress: bool
                 ) -> Iterator[tuple[NDArray, NDArray]]:
@@ -238,7 +245,7 @@ class TraceRun:
                 "scatterer_density": float(self.scatterers.density),
                 "bins_per_cell": int(self.config.bins_per_cell),
                 "acquisition_sweeps": int(self.total),
-                "integrator": self.config.to_dict(), "scene": str(self.scene_name),
+                "integrator": self.config.integrator_dict(), "scene": str(self.scene_name),
                 **{f"traced_{key}": int(value)
                    for key, value in self.integrator.statistics.items()},
                 "backscatter": int(self.backscatter),

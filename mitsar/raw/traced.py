@@ -1,8 +1,9 @@
 """Ray-traced acquisitions: scene -> range histograms -> raw (docs/design.md §2, §5.4, §5.5).
 
-:func:`trace` runs the Mitsuba ``radar`` integrator (``mitsar/plugins/radar.py``) over every
-sweep of an acquisition -- direct backscatter and, with ``max_depth > 1``, multipath by shooting
-and bouncing rays (``docs/multipath.md``) -- and returns the *histogram product*;
+:func:`trace` runs the Mitsuba ``radar`` integrator (:mod:`mitsar.plugins.integrators.radar`)
+over every sweep of an acquisition -- direct backscatter and, with ``max_depth > 1``, multipath
+by shooting and bouncing rays (``docs/multipath.md``) -- and returns the *histogram product*
+(:mod:`mitsar.products.histogram`);
 :func:`histogram_to_raw_product` turns it into the raw product (one inverse FFT per sweep),
 :func:`trace_paths` returns the path log of some rays of one sweep (ray-geometry figures), and
 :func:`simulate_scene` traces and synthesises while streaming over sweep chunks, optionally
@@ -47,6 +48,7 @@ from mitsar.model.geometry.trajectory import Trajectory
 from mitsar.model.noise import check_noise, thermal_noise
 from mitsar.model.radar import Radar
 from mitsar.model.targets import Background, PointTarget
+from mitsar.model.trace_options import TraceOptions
 from mitsar.plugins.integrators.radar import make_setup
 from mitsar.products.histogram import (
     make_histogram_product,
@@ -61,19 +63,9 @@ __all__ = ["histogram_to_raw_product", "simulate_scene", "trace", "trace_paths"]
 
 
 def trace(radar: Radar, trajectory: Trajectory, look: Look, scene: Any, *,
-          density: float | None = None, seed: int | None = None, sweeps: Any = None,
-          chunk_lanes: int | None = None, bins_per_cell: int | None = None,
-          beam_cull: float | None = None, rvp: bool = True, normalized: bool = False,
-          scene_params: dict | None = None, progress: bool = False,
-          max_depth: int | None = None, rays: int | None = None,
-          ray_cover: float | None = None, capture: str | None = None,
-          ghosts: bool | None = None, plane_normal: Any = None,
-          slab_width: float | None = None, receiver_offset: Any = None,
-          receiver_look: Look | None = None, backscatter: bool = True,
+          options: TraceOptions | None = None,
           navigation: Trajectory | NavigationErrors | None = None,
-          visibility_feature: float | None = None, motion: dict | None = None,
-          physical_optics: bool | Sequence[str] = False,
-          deterministic: bool = True, block_kernel: bool | None = None) -> xr.Dataset:
+          motion: dict | None = None, **changes: Any) -> xr.Dataset:
     """Ray-trace an acquisition of a Mitsuba scene into range histograms.
 
     Parameters
@@ -81,63 +73,15 @@ def trace(radar: Radar, trajectory: Trajectory, look: Look, scene: Any, *,
     radar, trajectory, look : Radar, Trajectory, Look
     scene : str, os.PathLike or mitsuba.Scene
         An XML file, a canned scene name, or a loaded scene. Its ``<integrator type="radar">``
-        gives the defaults of the tracing parameters (else the integrator's defaults).
-    density : float, optional
-        Surface scatterers per m² (default: 9 per resolution cell, about 900 per m²).
-    seed : int, optional
-        Seed of the scatterer positions and speckle phases (default: the integrator's, 0).
-    sweeps : slice or array of int, optional
-        Sweeps of the acquisition to trace (default all). The bin grid does not depend on it,
-        so pieces traced separately concatenate to the whole.
-    chunk_lanes : int, optional
-        Scatterer x sweep pairs per kernel launch (< 2^26).
-    bins_per_cell : int, optional
-        Histogram bins per range cell (default 16).
-    beam_cull : float, optional
-        Cull scatterers beyond this many beamwidths in direction sine (default 2: the
-        two-way power beyond is about -33 dB of the total per axis).
-    rvp : bool
-        Keep the residual video phase ``-K tau^2/2`` (default).
-    normalized : bool
-        Unit amplitude per unit sqrt(RCS), no range loss (as :func:`simulate_point_targets`).
-    scene_params : dict, optional
-        Values of the scene's ``<default>`` parameters (:func:`mitsar.scene.load_scene`), e.g.
-        ``{"rcs": 2.0}`` for the canned ``point_target``.
-    progress : bool
-        Show a progress bar.
-    max_depth : int, optional
-        Hits per ray, the paper's N_HITS (default 1: direct backscatter only). ``k > 1`` turns
-        on multipath with up to ``k - 1`` specular reflections (paper: 3 in 2D, 4 for the
-        trihedral's three reflections); the ``order`` axis then has ``k`` entries.
-    rays : int, optional
-        Multipath rays per sweep (default 4096; 2D mode: the size of the fan).
-    ray_cover : float, optional
-        Half-width of the ray grid in beamwidths (default 1: the main lobe to the first nulls).
-    capture : {"tent", "box"}, optional
-        Ray-tube capture kernel (default ``"tent"``; :mod:`mitsar.model.multipath`).
-    ghosts : bool, optional
-        Bistatic double-lobe scattering back to the receiver at every hit after the first
-        (default False, as the paper).
-    plane_normal : array_like, optional
-        2D mode: rays in the plane through the antenna containing the boresight with this
-        normal (e.g. ``[1, 0, 0]`` for the paper's y-z analyses), surface scatterers in a slab
-        of ``slab_width`` around it.
-    slab_width : float, optional
-        Width of the 2D mode's scatterer slab [m] (default 0.1, the azimuth cell).
-    receiver_offset : array_like, optional
-        Bistatic receiver at the transmitter's position plus this world-frame offset [m]
-        (default: monostatic). Needs ``backscatter=False``.
-    receiver_look : Look, optional
-        Mounting of the bistatic receiving antenna (default: the transmitter's ``look``).
-    backscatter : bool
-        Trace the direct backscatter of surface scatterers and point targets (order 0).
+        sets a layer of the trace request (under ``options`` and the keywords).
+    options : TraceOptions, optional
+        The trace request (:class:`mitsar.model.trace_options.TraceOptions`: sampling density
+        and seed, kernels, multipath, 2D mode, physical optics, signal, determinism, bistatic
+        receiver, sweeps, scene parameters, progress); its fields left ``None`` fall to the
+        scene's integrator, then to the defaults.
     navigation : Trajectory or NavigationErrors, optional
         What the navigation system records (``trajectory`` is then the true track); see
         :func:`mitsar.simulate_point_targets`.
-    visibility_feature : float, optional
-        Smallest occluder (or gap) width [m] that the reuse of shadow rays across sweeps must
-        resolve (default 0.03; 0: a shadow ray per sweep); docs/integrator.md §"Visibility
-        reuse".
     motion : dict, optional
         ``{shape id: [vx, vy, vz]}`` [m/s] or ``{shape id: {"velocity": ..,
         "angular_velocity_deg": .., "centre": .., "path": {"times", "positions",
@@ -145,62 +89,40 @@ def trace(radar: Radar, trajectory: Trajectory, look: Look, scene: Any, *,
         properties of the XML's shapes and the moving point targets
         (:mod:`mitsar.scene.motion`; docs/integrator.md §Moving objects). With any moving
         shape the scene is traced one sweep at a time, each with the shapes where they are.
-    physical_optics : bool or sequence of str
-        Physical optics of planar facets (docs/physical_optics.md §5): ``True`` for every mesh
-        with a radar material, or the ids of the shapes. Their specular returns come from PO:
-        single facets at order 1 and, with ``max_depth = k > 2``, the bounce chains of up to
-        ``k − 1`` of their facets (dihedrals, trihedrals) at order = chain length; multipath
-        rays stop on these shapes (no path is counted twice). Monostatic, 3-D only; moving
-        shapes carry their facets.
-    deterministic : bool
-        Bit-identical data run after run and on any thread count (default): the float64
-        atomic adds of the lane kernels, multipath and physical optics on one Dr.Jit thread,
-        the block kernel on every core with integer sums. ``False`` runs everything on every
-        core (the block kernel with float32 sums, ~15 % faster; bins then differ in their
-        last bits between runs; docs/integrator.md §"Determinism").
-    block_kernel : bool, optional
-        Direct backscatter of static 3-D scenes with shared shadow rays by the block kernel,
-        a lane per scatterer and chunk of sweeps (default, XML ``block_kernel``), or ``False``:
-        a lane per (scatterer, sweep), the kernels before it (docs/integrator.md
-        §"Performance").
+    **changes
+        Fields of :class:`~mitsar.model.trace_options.TraceOptions` set over ``options``, e.g.
+        ``max_depth=3`` (multipath with up to two reflections), ``physical_optics=True``,
+        ``sweeps=slice(0, 64)``, ``density=...`` (alias of ``scatterer_density``). The
+        merge order and every field's unit and default: :mod:`mitsar.model.trace_options`.
 
     Returns
     -------
     xarray.Dataset
         The histogram product (module docstring).
     """
-    run = TraceRun("trace", radar, trajectory, look, scene, density, seed, sweeps, chunk_lanes,
-               bins_per_cell, beam_cull, scene_params,
-               _multipath_options(max_depth, rays, ray_cover, capture, ghosts, plane_normal,
-                                  slab_width, visibility_feature, block_kernel),
-               receiver_offset, receiver_look, backscatter, navigation, motion, physical_optics,
-               deterministic=deterministic)
+    run = TraceRun("trace", radar, trajectory, look, scene,
+                   _request("trace", options, changes), navigation, motion)
     parts, indices = [], []
-    for chosen, hist in run.chunks(rvp, normalized, progress):
+    for chosen, hist in run.chunks():
         indices.append(chosen)
         parts.append(hist)
     sweeps = np.concatenate(indices)
     return make_histogram_product(
         np.concatenate(parts, axis=0), run.radar, run.look, sweeps, run.ranges,
-        *run.geometry_of(sweeps), rvp=rvp, normalized=normalized,
+        *run.geometry_of(sweeps), rvp=run.config.rvp, normalized=run.config.normalized,
         first_index=int(run.grid[0]), attrs=run.attrs())
 
 
-def _multipath_options(max_depth: Any, rays: Any, ray_cover: Any, capture: Any, ghosts: Any,
-                       plane_normal: Any, slab_width: Any, visibility_feature: Any = None,
-                       block_kernel: Any = None) -> dict[str, Any]:
-    """The integrator options a call overrides (None: the scene integrator's)."""
-    return {"max_depth": max_depth, "rays": rays, "ray_cover": ray_cover, "capture": capture,
-            "ghosts": ghosts, "plane_normal": plane_normal, "slab_width": slab_width,
-            "visibility_feature": visibility_feature, "block_kernel": block_kernel}
+def _request(where: str, options: TraceOptions | None, changes: dict[str, Any]) -> TraceOptions:
+    """The caller's layer of the trace request: ``options`` with the keyword ``changes``."""
+    if options is not None and not isinstance(options, TraceOptions):
+        raise ParameterError(where, "options", "None or a mitsar.TraceOptions", type(options))
+    return (options or TraceOptions()).replace(where, **changes)
 
 
 def trace_paths(radar: Radar, trajectory: Trajectory, look: Look, scene: Any, *,
-                sweep: int = 0, rays: Any = 64, max_depth: int | None = None,
-                ray_count: int | None = None, ray_cover: float | None = None,
-                capture: str | None = None, plane_normal: Any = None,
-                receiver_offset: Any = None, receiver_look: Look | None = None,
-                scene_params: dict | None = None) -> xr.Dataset:
+                sweep: int = 0, rays: Any = 64, options: TraceOptions | None = None,
+                **changes: Any) -> xr.Dataset:
     """Path log of a subset of the multipath rays of one sweep (ray-geometry figures).
 
     The rays are traced by the same kernel as :func:`trace` (nothing is deposited).
@@ -213,10 +135,10 @@ def trace_paths(radar: Radar, trajectory: Trajectory, look: Look, scene: Any, *,
         The sweep.
     rays : int or array_like of int
         How many rays of the grid to log (evenly spaced over the grid), or their indices.
-    max_depth, ray_cover, capture, plane_normal, receiver_offset, receiver_look, scene_params
-        As :func:`trace` (``max_depth`` defaults to the scene integrator's, at least 2).
-    ray_count : int, optional
-        Size of the ray grid (``rays`` of :func:`trace`).
+    options, **changes
+        The trace request, as :func:`trace` (``max_depth`` defaults to the scene integrator's,
+        at least 2; the size of the ray grid is the request's ``rays``, or the keyword
+        ``ray_count``). Direct backscatter is not traced.
 
     Returns
     -------
@@ -231,11 +153,11 @@ def trace_paths(radar: Radar, trajectory: Trajectory, look: Look, scene: Any, *,
         index), ``launch`` (path, 2: launch direction sines p, q); ``transmitter``,
         ``receiver`` (xyz). Attribute ``plane_normal`` in 2D mode.
     """
-    options = _multipath_options(max_depth, ray_count, ray_cover, capture, None, plane_normal,
-                                 None)
-    run = TraceRun("trace_paths", radar, trajectory, look, scene, None, None, np.array([sweep]),
-               None, None, None, scene_params, options, receiver_offset, receiver_look,
-               backscatter=False)
+    if "ray_count" in changes:  # the grid size (``rays`` here names the logged rays)
+        changes["rays"] = changes.pop("ray_count")
+    request = _request("trace_paths", options, changes).replace(
+        "trace_paths", sweeps=np.array([sweep]), backscatter=False)
+    run = TraceRun("trace_paths", radar, trajectory, look, scene, request)
     config = run.config
     if config.max_depth < 2:
         config = config.replace("trace_paths", max_depth=2)
@@ -299,13 +221,23 @@ def _setup_for(run: TraceRun, config: Any) -> Any:
     return make_setup(run.radar, run.frames, config, run.setup.receiver_offset, rx_frames)
 
 
-def _order_mask(where: str, orders: Any, available: NDArray) -> NDArray[np.bool_]:
-    if orders is None:
-        return np.ones(len(available), dtype=bool)
-    wanted = np.atleast_1d(np.asarray(orders))
-    if wanted.ndim != 1 or not np.issubdtype(wanted.dtype, np.integer) or np.any(wanted < 0):
-        raise ParameterError(where, "orders", "None or path orders (integers >= 0)", orders)
-    return np.isin(available, wanted)
+def _synthesise(histogram: NDArray, available: NDArray, orders: tuple[int, ...] | None,
+                ranges: NDArray, radar: Radar) -> tuple[NDArray[np.complex128], NDArray]:
+    """Raw sweeps of histograms (sweeps, orders, bins): the kept path orders summed, then one
+    inverse FFT per sweep (:func:`mitsar.model.histogram.histogram_to_raw`, docs/design.md
+    §5.5). The one histogram -> raw path of :func:`simulate_scene` and
+    :func:`histogram_to_raw_product`.
+
+    Returns
+    -------
+    samples : ndarray, shape (sweeps, samples_per_sweep)
+    kept : ndarray of int
+        The orders summed (of ``available``, the orders of the histogram's order axis).
+    """
+    mask = (np.ones(len(available), dtype=bool) if orders is None
+            else np.isin(available, np.asarray(orders)))
+    samples = hg.histogram_to_raw(histogram[:, mask, :].sum(axis=1), ranges, radar)
+    return samples, available[mask]
 
 
 def histogram_to_raw_product(histogram: xr.Dataset, orders: Any = None) -> xr.Dataset:
@@ -325,92 +257,63 @@ def histogram_to_raw_product(histogram: xr.Dataset, orders: Any = None) -> xr.Da
     """
     validate_histogram(histogram, "histogram_to_raw_product")
     radar = radar_of(histogram)
-    mask = _order_mask("histogram_to_raw_product", orders, histogram["order"].values)
-    summed = histogram["histogram"].values[:, mask, :].sum(axis=1)
-    samples = hg.histogram_to_raw(summed, histogram["apparent_range"].values, radar)
-    return raw_from_histogram(histogram, samples, histogram["order"].values[mask])
+    wanted = TraceOptions().replace("histogram_to_raw_product", orders=orders).orders
+    samples, kept = _synthesise(histogram["histogram"].values, histogram["order"].values,
+                                wanted, histogram["apparent_range"].values, radar)
+    return raw_from_histogram(histogram, samples, kept)
 
 
 def simulate_scene(radar: Radar, trajectory: Trajectory, look: Look, scene: Any, *,
                    targets: Sequence[PointTarget] = (), background: Background | None = None,
-                   density: float | None = None, seed: int | None = None,
-                   orders: Any = None, sweeps: Any = None, chunk_lanes: int | None = None,
-                   bins_per_cell: int | None = None, beam_cull: float | None = None,
-                   rvp: bool = True, normalized: bool = False, scene_params: dict | None = None,
-                   progress: bool = False, max_depth: int | None = None,
-                   rays: int | None = None, ray_cover: float | None = None,
-                   capture: str | None = None, ghosts: bool | None = None,
-                   plane_normal: Any = None, slab_width: float | None = None,
+                   options: TraceOptions | None = None,
                    navigation: Trajectory | NavigationErrors | None = None,
-                   noise: bool = False,
-                   physical_optics: bool | Sequence[str] = False,
-                   motion: dict | None = None, deterministic: bool = True,
-                   visibility_feature: float | None = None,
-                   block_kernel: bool | None = None) -> xr.Dataset:
+                   motion: dict | None = None, **changes: Any) -> xr.Dataset:
     """Raw data of a Mitsuba scene: trace, synthesise (streaming), add analytic targets.
 
     Histograms are turned into raw sweeps chunk by chunk, so memory stays bounded by the chunk
     size and the raw output. Analytic ``targets`` and ``background``
-    (:func:`mitsar.simulate_point_targets`, same ``seed``, ``rvp`` and ``normalized``) are added
+    (:func:`mitsar.simulate_point_targets`, same seed, ``rvp`` and ``normalized``) are added
     on top; they are not shadowed by the scene.
 
     Parameters
     ----------
-    radar, trajectory, look, scene
-        As :func:`trace`.
+    radar, trajectory, look, scene, navigation, motion
+        As :func:`trace` (monostatic).
     targets : sequence of PointTarget
         Extra analytic point targets.
     background : Background, optional
         Extra analytic fluctuating background (paper eq. 4).
-    orders : int or sequence of int, optional
-        Path orders to keep (``0``: direct backscatter only); default all.
-    density, seed, sweeps, chunk_lanes, bins_per_cell, beam_cull, rvp, normalized,
-    scene_params, progress, max_depth, rays, ray_cover, capture, ghosts, plane_normal,
-    slab_width, navigation
-        As :func:`trace` (monostatic).
-    noise : bool
-        Add receiver noise ``k T0 F f_s`` per complex sample (needs ``radar.noise_figure_db``),
-        drawn by :func:`mitsar.model.noise.thermal_noise` from the run's seed and each sample's
-        sweep and index (so a subset of ``sweeps`` gets the same noise as in the full run).
-    physical_optics : bool or sequence of str
-        Physical-optics specular returns of planar facets and their bounce chains, as
-        :func:`trace` (docs/physical_optics.md §5).
-    motion : dict, optional
-        Moving shapes, as :func:`trace`.
-    deterministic : bool
-        Bit-identical runs (default), as :func:`trace`.
-    visibility_feature, block_kernel : optional
-        As :func:`trace` (shadow rays shared across sweeps; the block kernel).
+    options, **changes
+        The trace request, as :func:`trace`; here also ``orders`` (path orders kept, default
+        all) and ``noise`` (receiver noise ``k T0 F f_s`` per complex sample, needs
+        ``radar.noise_figure_db``, drawn by :func:`mitsar.model.noise.thermal_noise` from the
+        request's seed and each sample's sweep and index, so a subset of ``sweeps`` gets the
+        same noise as in the full run).
 
     Returns
     -------
     xarray.Dataset
         Raw product (:mod:`mitsar.products.raw`).
     """
-    run = TraceRun("simulate_scene", radar, trajectory, look, scene, density, seed, sweeps,
-               chunk_lanes, bins_per_cell, beam_cull, scene_params,
-               _multipath_options(max_depth, rays, ray_cover, capture, ghosts, plane_normal,
-                                  slab_width, visibility_feature, block_kernel),
-               navigation=navigation, motion=motion,
-               physical_optics=physical_optics, deterministic=deterministic)
-    _order_mask("simulate_scene", orders, np.arange(1))  # validate early
-    check_noise("simulate_scene", radar, noise, normalized)
+    request = _request("simulate_scene", options, changes)
+    resolved = request.resolve("simulate_scene")  # refused before the scene is loaded
+    check_noise("simulate_scene", radar, resolved.noise, resolved.normalized)
+    run = TraceRun("simulate_scene", radar, trajectory, look, scene, request, navigation, motion)
+    config = run.config
     samples = np.zeros((len(run.sweeps), radar.samples_per_sweep), dtype=np.complex128)
     row = 0
     kept = np.arange(0)
-    for chosen, hist in run.chunks(rvp, normalized, progress):
-        mask = _order_mask("simulate_scene", orders, np.arange(hist.shape[1]))
-        kept = np.arange(hist.shape[1])[mask]
-        summed = hist[:, mask, :].sum(axis=1)
-        samples[row:row + len(chosen)] = hg.histogram_to_raw(summed, run.ranges, radar)
+    for chosen, hist in run.chunks():
+        samples[row:row + len(chosen)], kept = _synthesise(hist, np.arange(hist.shape[1]),
+                                                           config.orders, run.ranges, radar)
         row += len(chosen)
     attrs = run.attrs()
-    attrs.update(simulator="ray tracing (radar integrator)", normalized=int(normalized),
+    attrs.update(simulator="ray tracing (radar integrator)", normalized=int(config.normalized),
                  orders=[int(o) for o in kept])
     if targets or background is not None:
         analytic = simulate_point_targets(radar, trajectory, look, targets, background,
-                                          seed=attrs["seed"], rvp=rvp, normalized=normalized,
-                                          navigation=run.recorded)
+                                          seed=config.seed, rvp=config.rvp,
+                                          normalized=config.normalized, navigation=run.recorded)
         samples += analytic["raw"].values[run.sweeps]
         attrs["simulator"] += " + analytic point targets"
         attrs["analytic_config"] = analytic.attrs.get("config", "{}")
@@ -420,11 +323,11 @@ def simulate_scene(radar: Radar, trajectory: Trajectory, look: Look, scene: Any,
                       f"{attrs['point_target_count']} point targets, orders {attrs['orders']}): "
                       "check the look angles, the trajectory, the materials and the orders",
                       MitsarWarning, stacklevel=2)
-    attrs["noise"] = int(noise)
-    if noise:
-        samples += thermal_noise(radar, attrs["seed"], run.sweeps)
-        attrs.update(noise_power=radar.noise_power, noise_seed=int(attrs["seed"]))
+    attrs["noise"] = int(config.noise)
+    if config.noise:
+        samples += thermal_noise(radar, config.seed, run.sweeps)
+        attrs.update(noise_power=radar.noise_power, noise_seed=int(config.seed))
     recorded, true = run.geometry_of(run.sweeps)
-    product = make_raw_product(samples, radar, look, recorded, rvp=rvp, attrs=attrs,
+    product = make_raw_product(samples, radar, look, recorded, rvp=config.rvp, attrs=attrs,
                                true_geometry=true)
     return product.assign_coords(sweep=run.sweeps)

@@ -12,7 +12,7 @@ each.
 ==================== =================================================================== ======
 module               stage                                                               Mitsuba
 ==================== =================================================================== ======
-:mod:`.config`       XML parameters, limits, validation                                  no
+:mod:`.config`       XML name and parameters (TraceOptions' fields), launch sizes         no
 :mod:`.setup`        per-acquisition ray frames, 2D plane, bistatic receiver, ray grid   no
 :mod:`.constants`    packed launch constants and per-sweep / per-scatterer device arrays yes
 :mod:`.deposit`      the one deposit of every mechanism into the histogram               yes
@@ -27,11 +27,7 @@ checked before a variant is chosen; :mod:`mitsar.scene.variant` imports :mod:`.i
 a variant is set.
 """
 
-from mitsar.plugins.integrators.radar.config import (
-    PARAMETERS,
-    PLUGIN_NAME,
-    RadarIntegratorConfig,
-)
+from mitsar.plugins.integrators.radar.config import PARAMETERS, PLUGIN_NAME
 from mitsar.plugins.integrators.radar.setup import TraceSetup, make_setup
 
-__all__ = ["PARAMETERS", "PLUGIN_NAME", "RadarIntegratorConfig", "TraceSetup", "make_setup"]
+__all__ = ["PARAMETERS", "PLUGIN_NAME", "TraceSetup", "make_setup"]

@@ -39,6 +39,7 @@ from mitsar.model.geometry.visibility import (
     visibility_blocks,
 )
 from mitsar.model.radar import Radar
+from mitsar.model.trace_options import TraceOptions
 from mitsar.plugins.integrators.radar.blocks import (
     add_packets,
     amplitude_polynomial_holds,
@@ -50,7 +51,6 @@ from mitsar.plugins.integrators.radar.blocks import (
     packet_buffer,
     packet_window,
 )
-from mitsar.plugins.integrators.radar.config import RadarIntegratorConfig
 from mitsar.plugins.integrators.radar.constants import (
     BACKSCATTER_FLOATS,
     MAX_CHUNK_SWEEPS,
@@ -298,7 +298,7 @@ def _contribute(scene: Any, sc: dict, sw: dict, k: Constants, s: Any, m: Any, ac
 
 def backscatter_chunk(scene: Any, device: dict, geometry: dict, frames: NDArray, radar: Radar,
                       setup: TraceSetup, chosen: NDArray, k: dict, target_speed: float,
-                      config: RadarIntegratorConfig, re: Any, im: Any,
+                      config: TraceOptions, re: Any, im: Any,
                       statistics: dict[str, int], visibility_block: int | None = None
                       ) -> None:
     """Mechanism 1 for one chunk of sweeps ``chosen`` (deposits into order 0).

@@ -19,7 +19,7 @@ from numpy.typing import NDArray
 from mitsar.model.multipath import RaySet, multipath_amplitude_constant
 from mitsar.model.radar import Radar
 from mitsar.model.signal import radar_equation_amplitude
-from mitsar.plugins.integrators.radar.config import RadarIntegratorConfig
+from mitsar.model.trace_options import TraceOptions
 from mitsar.scene.scatterers import ScattererSet
 
 BACKSCATTER_FLOATS = ("fc", "chirp_rate", "first_range", "inv_step", "last_lower", "beta_az",
@@ -82,7 +82,7 @@ class Constants:
         return self["chirp_rate"]
 
 
-def backscatter_constants(radar: Radar, config: RadarIntegratorConfig, grid: tuple[int, int],
+def backscatter_constants(radar: Radar, config: TraceOptions, grid: tuple[int, int],
                           step: float, orders: int, rvp: bool, normalized: bool,
                           max_speed: float, planar: bool) -> dict:
     """Constants of an acquisition for :data:`BACKSCATTER_FLOATS` (chunk values added later).
@@ -122,7 +122,7 @@ def backscatter_constants(radar: Radar, config: RadarIntegratorConfig, grid: tup
     }
 
 
-def multipath_constants(radar: Radar, config: RadarIntegratorConfig, k: dict,
+def multipath_constants(radar: Radar, config: TraceOptions, k: dict,
                         rays: RaySet) -> dict:
     """Constants of the multipath kernel (:data:`MULTIPATH_FLOATS`) from those of
     :func:`backscatter_constants`."""

@@ -47,7 +47,8 @@ from tqdm.auto import tqdm
 from mitsar.errors import MitsarError, ParameterError
 from mitsar.model import histogram as hg
 from mitsar.model.radar import Radar
-from mitsar.plugins import PerVariant, plugin_where, read_properties
+from mitsar.model.trace_options import TraceOptions
+from mitsar.plugins import PerVariant, parse_vector3, plugin_where, read_properties
 from mitsar.plugins.integrators.radar import blocks, bounce
 from mitsar.plugins.integrators.radar.backscatter import backscatter_chunk
 from mitsar.plugins.integrators.radar.config import (
@@ -56,7 +57,6 @@ from mitsar.plugins.integrators.radar.config import (
     PARAMETERS,
     PLUGIN_NAME,
     SWEEPS_PER_CHUNK,
-    RadarIntegratorConfig,
     histogram_buffer_length,
 )
 from mitsar.plugins.integrators.radar.constants import (
@@ -93,7 +93,12 @@ def _make_class() -> type:
             mi.SamplingIntegrator.__init__(self, props)
             self._where = plugin_where(PLUGIN_NAME, props)
             values = read_properties(props, self._where, PARAMETERS)
-            self.config = RadarIntegratorConfig.from_values(values, self._where)
+            if values.get("plane_normal") is not None:
+                values["plane_normal"] = parse_vector3(values["plane_normal"], self._where,
+                                                       "plane_normal")
+            # the XML's layer of the trace request, and the request it makes on its own
+            self.options = TraceOptions.from_xml(values, self._where)
+            self.config = self.options.resolve(self._where)
             self.cache: dict = {}  # the orchestration keeps the scene's scatterer set here
             self.statistics: dict[str, int] = {}
 
@@ -114,14 +119,14 @@ def _make_class() -> type:
             """Nothing to expose: the integrator has no differentiable parameters."""
 
         def to_string(self) -> str:
-            fields = ", ".join(f"{k}={v}" for k, v in self.config.to_dict().items())
+            fields = ", ".join(f"{k}={v}" for k, v in self.config.integrator_dict().items())
             return f"RadarIntegrator[{fields}]"
 
         # ---- radar interface -----------------------------------------------------------
 
         def trace_histograms(self, scene: Any, geometry: dict, radar: Radar, frames: NDArray,
                              scatterers: ScattererSet, grid: tuple[int, int], *,
-                             sweeps: NDArray | None = None, config: RadarIntegratorConfig
+                             sweeps: NDArray | None = None, config: TraceOptions
                              | None = None, rvp: bool = True, normalized: bool = False,
                              progress: bool = False, setup: TraceSetup | None = None,
                              backscatter: bool = True, visibility_block: int | None = None
@@ -142,7 +147,7 @@ def _make_class() -> type:
                 Histogram bin grid (:func:`mitsar.model.histogram.bin_grid`).
             sweeps : ndarray of int, optional
                 Sweep indices to trace (default all), increasing.
-            config : RadarIntegratorConfig, optional
+            config : TraceOptions, optional
                 Overrides this integrator's configuration.
             rvp, normalized : bool
                 Keep the residual video phase; unit amplitude per unit sqrt(RCS) (as
@@ -242,7 +247,7 @@ def _make_class() -> type:
                 bar.close()
 
         def trace_paths(self, scene: Any, geometry: dict, radar: Radar, frames: NDArray,
-                        sweep: int, rays: NDArray, config: RadarIntegratorConfig,
+                        sweep: int, rays: NDArray, config: TraceOptions,
                         setup: TraceSetup) -> dict[str, NDArray]:
             """Path log of some rays of one sweep (same kernel as :meth:`trace_histograms`).
 
@@ -273,7 +278,7 @@ def _make_class() -> type:
 
         def _multipath_chunk(self, scene: Any, table: dict, ray_dev: dict, ray_ids: Any,
                              geometry: dict, frames: NDArray, setup: TraceSetup,
-                             chosen: NDArray, kmp: dict, config: RadarIntegratorConfig,
+                             chosen: NDArray, kmp: dict, config: TraceOptions,
                              re: Any, im: Any) -> None:
             """Mechanism 2 for one chunk of sweeps, in blocks of rays."""
             sw = multipath_sweep_arrays(geometry, frames, setup, chosen)

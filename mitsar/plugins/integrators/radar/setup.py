@@ -16,7 +16,7 @@ from numpy.typing import NDArray
 from mitsar.errors import ParameterError
 from mitsar.model.multipath import RaySet, ray_frame_2d, ray_set
 from mitsar.model.radar import Radar
-from mitsar.plugins.integrators.radar.config import RadarIntegratorConfig
+from mitsar.model.trace_options import TraceOptions
 
 
 @dataclass
@@ -57,7 +57,7 @@ class TraceSetup:
         return bool(np.any(self.receiver_offset != 0.0))
 
 
-def make_setup(radar: Radar, frames: NDArray, config: RadarIntegratorConfig,
+def make_setup(radar: Radar, frames: NDArray, config: TraceOptions,
                receiver_offset: Any = None, receiver_frames: NDArray | None = None
                ) -> TraceSetup:
     """The :class:`TraceSetup` of an acquisition (2D mode, bistatic receiver, ray grid).
@@ -67,7 +67,7 @@ def make_setup(radar: Radar, frames: NDArray, config: RadarIntegratorConfig,
     radar : Radar
     frames : ndarray, shape (sweeps, 3, 3)
         Antenna-to-world rotations at mid-sweep.
-    config : RadarIntegratorConfig
+    config : TraceOptions
     receiver_offset : array_like, optional
         Receiver minus transmitter position [m] (default: monostatic).
     receiver_frames : ndarray, optional
