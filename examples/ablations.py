@@ -25,7 +25,7 @@ import mitsar  # noqa: E402
 from mitsar.focus.grid import SlantGrid, equivalent_position  # noqa: E402
 from mitsar.focus.motion import doppler_range_shift  # noqa: E402
 from mitsar.model.geometry.attitude import boresight  # noqa: E402
-from mitsar.plots.products import save_figure  # noqa: E402
+from mitsar.plots.figures import save_figure  # noqa: E402
 
 RADAR = mitsar.Radar()
 TARGET = np.array([0.0, 0.0, 0.0])

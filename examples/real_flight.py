@@ -34,7 +34,7 @@ from mitsar.focus.autofocus import correct_raw, image_entropy  # noqa: E402
 from mitsar.focus.grid import SlantGrid, equivalent_position  # noqa: E402
 from mitsar.io import write_json  # noqa: E402
 from mitsar.plots import navigation as plots_navigation  # noqa: E402
-from mitsar.plots.products import plot_image, save_figure  # noqa: E402
+from mitsar.plots.figures import plot_image, save_figure  # noqa: E402
 
 RADAR = mitsar.Radar()
 START = np.array([14.8, 1.4, 4.5])

@@ -12,6 +12,7 @@ from mitsar.cli import build_parser, demo_examples, main
 from mitsar.experiment.examples import example_path
 from mitsar.experiment.loading import apply_overrides
 from mitsar.io import load
+from mitsar.products.requests import CARRIED_ATTRS
 
 # One point target seen over +-0.6 m of track (2.8 s), a small image around it: fast, and wide
 # enough for the +-5-cell ISLR of the paper.
@@ -189,7 +190,7 @@ def test_demo_on_a_tiny_example(tmp_path, monkeypatch, capsys):
 
 def test_metrics_needs_a_target(products, tmp_path, capsys):
     image = load(products["image"])
-    for key in ("experiment", "experiment_source", "experiment_name"):
+    for key in CARRIED_ATTRS:  # the experiment's record and requests (its target)
         image.attrs.pop(key, None)
     from mitsar.io import save
 

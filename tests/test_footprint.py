@@ -11,8 +11,8 @@ import pytest
 import mitsar
 from mitsar.experiment import example_path, load_experiment, run_simulation
 from mitsar.model.geometry.attitude import antenna_frame
+from mitsar.plots.figures import save_figure
 from mitsar.plots.footprint import plot_footprint, scene_range_marks
-from mitsar.plots.products import save_figure
 from mitsar.scene import load_scene
 from mitsar.scene.footprint import beam_directions, beam_footprint, beam_marks
 

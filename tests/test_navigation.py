@@ -15,7 +15,7 @@ from mitsar.focus.bpa import focus_bpa
 from mitsar.focus.grid import SlantGrid, equivalent_position
 from mitsar.model.geometry.navigation import navigation_track
 from mitsar.plots import navigation as plots_navigation
-from mitsar.plots.products import save_figure
+from mitsar.plots.figures import save_figure
 
 RADAR = mitsar.Radar()
 START = np.array([14.8, 1.4, 4.5])

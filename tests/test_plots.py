@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import json
-
 import matplotlib.pyplot as plt
 import numpy as np
 import pytest
@@ -11,7 +9,7 @@ import xarray as xr
 
 from mitsar import io
 from mitsar.errors import MitsarError
-from mitsar.plots import products as plots
+from mitsar.plots import figures as plots
 
 PNG = b"\x89PNG\r\n\x1a\n"
 
@@ -32,8 +30,7 @@ def _image_product() -> xr.Dataset:
         coords={"azimuth": azimuth, "range": slant, "xyz": ["x", "y", "z"]},
         attrs={"product": "image", "algorithm": "bpa", "range_resolution": 0.1,
                "azimuth_resolution": 0.1, "range_axis": [0.0, 1.0], "azimuth_axis": [1.0, 0.0],
-               "experiment": json.dumps({"targets": [{"position": list(origin + 0.7 * np.array(
-                   [1.0, 0, 0]) + 8.0 * look)}]})})
+               "target_positions": list(origin + 0.7 * np.array([1.0, 0, 0]) + 8.0 * look)})
 
 
 def _profile_product() -> xr.Dataset:
@@ -156,7 +153,7 @@ def test_beam_range_marks_closed_form():
     import math
 
     import mitsar
-    from mitsar.plots.products import beam_range_marks
+    from mitsar.plots.figures import beam_range_marks
 
     radar = mitsar.Radar()
     trajectory = mitsar.Trajectory.linear([0.0, 8.0, 1.0], [0.5, 0, 0], 0.2)

@@ -14,7 +14,7 @@
 Errors in the input (bad files, invalid parameters) print one message on stderr and exit with
 status 2; ``--debug`` shows the traceback instead. See ``docs/cli.md``.
 
-The commands live in one module a group: :mod:`~mitsar.cli.products` (one product file to the
+The commands live in one module a group: :mod:`~mitsar.cli.stages` (one product file to the
 next), :mod:`~mitsar.cli.demo`, :mod:`~mitsar.cli.campaigns` (``montecarlo``, ``sweep``),
 :mod:`~mitsar.cli.scene` (``rays``, ``preview``), :mod:`~mitsar.cli.report` (``run``,
 ``report``), :mod:`~mitsar.cli.ambiguity`; their options in :mod:`~mitsar.cli.parser`.
@@ -28,7 +28,7 @@ from collections.abc import Sequence
 from mitsar.budget import set_memory_limit
 from mitsar.cli.demo import DEMO_FILES, PAPER_TABLE4_BPA, demo_examples, demo_summary, run_demo
 from mitsar.cli.parser import build_parser
-from mitsar.cli.products import format_metrics
+from mitsar.cli.stages import format_metrics
 from mitsar.errors import MitsarError
 
 # The demo's and the metrics table's helpers stay importable from here, as before the split.

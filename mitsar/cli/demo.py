@@ -8,24 +8,13 @@ import time
 from pathlib import Path
 from typing import Any
 
-import matplotlib.pyplot as plt
-
 from mitsar.cli.common import log
-from mitsar.cli.products import format_metrics
+from mitsar.cli.stages import format_metrics
 from mitsar.experiment.examples import example_path, examples_dir
 from mitsar.experiment.loading import load_experiment, read_toml
 from mitsar.experiment.paper import PAPER_TABLES
-from mitsar.experiment.runs import run_focus, run_metrics, run_simulation
-from mitsar.io import ProductFileError, check_writable, save, to_jsonable, write_json
-from mitsar.plots.products import (
-    background_samples,
-    plot_background_histograms,
-    plot_cuts,
-    plot_image,
-    plot_range_compressed,
-    save_figure,
-    target_marks,
-)
+from mitsar.io import ProductFileError, check_writable, to_jsonable, write_json
+from mitsar.report.pipeline import PipelineFiles, RunFolder, run_pipeline
 
 __all__ = ["DEMO_FILES", "PAPER_TABLE4_BPA", "cmd_demo", "demo_examples", "demo_summary",
            "run_demo"]
@@ -76,58 +65,32 @@ def cmd_demo(args: argparse.Namespace) -> int:
 
 def run_demo(experiment: Any, paths: dict[str, Path], overwrite: bool = False,
              progress: bool = True, log: Any = None) -> dict[str, Any]:
-    """Simulate, focus, measure and plot an experiment, writing ``paths`` (see DEMO_FILES).
+    """Simulate, focus, measure and plot an experiment, writing ``paths`` (see DEMO_FILES),
+    with the one pipeline of ``mitsar run`` (:func:`mitsar.report.pipeline.run_pipeline`).
 
     Returns
     -------
     dict
         ``raw`` and ``image`` datasets, ``metrics`` (dict), ``seconds`` per step.
     """
-    log = log or (lambda message: None)
-    seconds: dict[str, float] = {}
-    clock = time.perf_counter()
-    log("[1/4] simulating raw data ...")
-    raw = run_simulation(experiment, progress=progress)
-    save(raw, paths["raw"], overwrite=overwrite)
-    seconds["simulate"] = time.perf_counter() - clock
-    clock = time.perf_counter()
-    log(f"[2/4] focusing ({experiment.focus.algorithm.upper()}) ...")
-    image = run_focus(raw, experiment.focus, progress=progress)
-    save(image, paths["image"], overwrite=overwrite)
-    seconds["focus"] = time.perf_counter() - clock
-    clock = time.perf_counter()
-    log("[3/4] measuring the impulse response ...")
-    metrics = to_jsonable(run_metrics(image))
+    algorithm = experiment.focus.algorithm
+    run = RunFolder(paths["raw"].parent, overwrite)
+    files = PipelineFiles(raw=str(paths["raw"]), range_figure=str(paths["range_figure"]),
+                          background_figure=str(paths["histogram_figure"]),
+                          image=str(paths["image"]), image_figure=str(paths["image_figure"]),
+                          cuts_figure=str(paths["cuts_figure"]))
+    result = run_pipeline(run, experiment, [algorithm], progress=progress, strict=True,
+                          files=files, log=log)
+    start = time.perf_counter()
+    metrics = to_jsonable(result.metrics[algorithm])
     metrics["paper_table4_bpa"] = PAPER_TABLE4_BPA
     write_json(metrics, paths["metrics"], overwrite=overwrite)
-    seconds["metrics"] = time.perf_counter() - clock
-    clock = time.perf_counter()
-    log("[4/4] plotting ...")
-    _demo_figures(raw, image, metrics, paths, overwrite)
-    seconds["plots"] = time.perf_counter() - clock
-    return {"raw": raw, "image": image, "metrics": metrics, "seconds": seconds}
-
-
-def _demo_figures(raw: Any, image: Any, metrics: dict[str, Any], paths: dict[str, Path],
-                  overwrite: bool) -> None:
-    """The four demo figures."""
-    figure, ax = plt.subplots(figsize=(8, 5), layout="constrained")
-    plot_range_compressed(raw, ax=ax)
-    save_figure(figure, paths["range_figure"], overwrite)
-    figure, ax = plt.subplots(figsize=(7, 6), layout="constrained")
-    plot_image(image, ax=ax, marks=target_marks(image))
-    save_figure(figure, paths["image_figure"], overwrite)
-    figure, axes = plt.subplots(1, 2, figsize=(12, 4.5), layout="constrained")
-    plot_cuts(image, metrics, axes=axes)
-    save_figure(figure, paths["cuts_figure"], overwrite)
-    if "background_reflectivity" in raw:
-        amplitudes, phases = background_samples(raw)
-        figure, axes = plt.subplots(1, 2, figsize=(12, 4.5), layout="constrained")
-        level = raw.attrs.get("background_cell_rcs_db")
-        label = (f"{level:g} dB background, first sweep" if level is not None
-                 else "background, first sweep")
-        plot_background_histograms(amplitudes, phases, axes=axes, label=label)
-        save_figure(figure, paths["histogram_figure"], overwrite)
+    steps = run.record["steps"]
+    seconds = {"simulate": steps["simulate"], "focus": steps[f"focus {algorithm}"],
+               "metrics": steps[f"metrics {algorithm}"] + time.perf_counter() - start,
+               "plots": run.plot_seconds}
+    return {"raw": result.raw, "image": result.images[algorithm], "metrics": metrics,
+            "seconds": seconds}
 
 
 def demo_summary(experiment: Any, results: dict[str, Any], out: Path) -> str:

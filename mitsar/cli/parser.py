@@ -8,7 +8,9 @@ from typing import Any
 from mitsar.cli.ambiguity import cmd_ambiguity
 from mitsar.cli.campaigns import cmd_montecarlo, cmd_sweep
 from mitsar.cli.demo import cmd_demo, demo_examples
-from mitsar.cli.products import (
+from mitsar.cli.report import cmd_report, cmd_run
+from mitsar.cli.scene import cmd_preview, cmd_rays
+from mitsar.cli.stages import (
     cmd_export,
     cmd_focus,
     cmd_metrics,
@@ -16,8 +18,6 @@ from mitsar.cli.products import (
     cmd_range,
     cmd_simulate,
 )
-from mitsar.cli.report import cmd_report, cmd_run
-from mitsar.cli.scene import cmd_preview, cmd_rays
 from mitsar.experiment.options import ALGORITHMS, AUTOFOCUS_METHODS, ISLR_EXTENTS, WINDOWS
 from mitsar.version import __version__
 

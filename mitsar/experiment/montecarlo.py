@@ -48,7 +48,7 @@ from mitsar.experiment.paper import paper_table
 from mitsar.focus.dispatch import ALGORITHMS
 from mitsar.focus.grid import equivalent_position
 from mitsar.io import save
-from mitsar.plots.products import save_figure
+from mitsar.plots.figures import save_figure
 from mitsar.quality.impulse import measure_impulse_response
 from mitsar.version import __version__
 

@@ -1,13 +1,15 @@
 """The workflow of an experiment: simulate its raw product, focus it, measure the image.
 
-Each step takes the validated configuration of :mod:`mitsar.experiment.options` and records the
-experiment in the products' attributes, so that a later step (or a later session reading the
-saved product) finds the target and options it was run with.
+Each step takes the validated configuration of :mod:`mitsar.experiment.options`. The raw
+product records what the experiment asks of the later steps (focus options, metrics target and
+ISLR extent, point targets, scene: :mod:`mitsar.products.requests`) and the image carries it, so
+that a later step (or a later session reading the saved product) reads the target and options
+from the product, never by parsing the experiment again.
 """
 
 from __future__ import annotations
 
-import json
+import dataclasses
 import os
 import warnings
 from pathlib import Path
@@ -16,10 +18,11 @@ from typing import Any
 import xarray as xr
 
 from mitsar.errors import MitsarError, MitsarWarning
-from mitsar.experiment.loading import metrics_options_from_config
 from mitsar.experiment.options import Experiment, FocusOptions, MetricsOptions
 from mitsar.focus.dispatch import focus
 from mitsar.io import ZarrStream, is_zarr, save
+from mitsar.products.image import carry_requests
+from mitsar.products.requests import metrics_request, request_attrs
 from mitsar.quality.impulse import measure_impulse_response
 from mitsar.raw.analytic import simulate_point_targets, stream_point_targets
 from mitsar.raw.traced import simulate_scene
@@ -73,14 +76,15 @@ def run_simulation(experiment: Experiment, progress: bool = False) -> xr.Dataset
     return raw
 
 
-def _experiment_attrs(experiment: Experiment) -> dict[str, str]:
-    """The experiment record a raw product carries (see :func:`run_simulation`)."""
-    attrs = {"experiment": json.dumps(experiment.config)}
-    if experiment.source is not None:
-        attrs["experiment_source"] = str(experiment.source)
-    if experiment.name:
-        attrs["experiment_name"] = experiment.name
-    return attrs
+def _experiment_attrs(experiment: Experiment) -> dict[str, Any]:
+    """The experiment record a raw product carries, and what the experiment asks of the later
+    steps (:func:`mitsar.products.requests.request_attrs`; see :func:`run_simulation`)."""
+    return request_attrs(
+        config=experiment.config, source=None if experiment.source is None
+        else str(experiment.source), name=experiment.name, scene=experiment.scene,
+        targets=[t.position for t in experiment.targets],
+        metrics_target=experiment.metrics.target, islr_extent=experiment.metrics.islr_extent,
+        focus=dataclasses.asdict(experiment.focus))
 
 
 def simulate_to(experiment: Experiment, path: str | os.PathLike, overwrite: bool = False,
@@ -130,8 +134,8 @@ def simulate_to(experiment: Experiment, path: str | os.PathLike, overwrite: bool
 def run_focus(raw: xr.Dataset, options: FocusOptions, progress: bool = False) -> xr.Dataset:
     """Focus a raw product with the given options.
 
-    The image keeps the raw product's experiment record (``experiment`` and
-    ``experiment_source`` attributes), so that metrics can find their target.
+    The image keeps the raw product's experiment record and requests
+    (:data:`mitsar.products.requests.CARRIED_ATTRS`), so that metrics find their target.
 
     Parameters
     ----------
@@ -151,10 +155,7 @@ def run_focus(raw: xr.Dataset, options: FocusOptions, progress: bool = False) ->
     image = focus(raw, algorithm=options.algorithm, grid=options.make_grid(),
                   window=options.window, azimuth_resolution=options.azimuth_resolution,
                   progress=progress, **extra)
-    for key in ("experiment", "experiment_source", "experiment_name"):
-        if key in raw.attrs and key not in image.attrs:
-            image.attrs[key] = raw.attrs[key]
-    return image
+    return carry_requests(raw, image)
 
 
 def run_metrics(image: xr.Dataset, target: Any | None = None,
@@ -166,10 +167,11 @@ def run_metrics(image: xr.Dataset, target: Any | None = None,
     image : xarray.Dataset
         An image product.
     target : array_like of 3 floats, optional
-        World position [m]; by default the ``[metrics] target`` of the image's experiment, or
-        its first point target.
+        World position [m]; by default the image's ``metrics_target`` (the ``[metrics]
+        target`` of its experiment, or its first point target).
     islr_extent : str or float, optional
-        ISLR side-lobe extent; by default from the experiment, else ``"paper"``.
+        ISLR side-lobe extent; by default the image's ``metrics_islr_extent``, else
+        ``"paper"``.
 
     Returns
     -------
@@ -177,18 +179,17 @@ def run_metrics(image: xr.Dataset, target: Any | None = None,
         The result of :func:`mitsar.quality.impulse.measure_impulse_response`, plus ``target`` and
         ``islr_extent``.
     """
-    config = image.attrs.get("experiment")
-    options = metrics_options_from_config(config) if config else MetricsOptions()
+    recorded_target, recorded_extent = metrics_request(image)
     if target is None:
-        target = options.target
-    if target is None and config:
-        targets = json.loads(config).get("targets") or []
-        target = targets[0]["position"] if targets else None
+        target = recorded_target
     if target is None:
         raise MitsarError("metrics: no target position: give one (--target X Y Z) or set "
                           "[metrics] target in the experiment")
     target = [float(v) for v in target]
-    extent = islr_extent if islr_extent is not None else options.islr_extent
+    if islr_extent is not None:
+        extent = islr_extent
+    else:
+        extent = recorded_extent if recorded_extent is not None else MetricsOptions().islr_extent
     result = dict(measure_impulse_response(image, target=target, islr_extent=extent))
     result.setdefault("target", target)
     result.setdefault("islr_extent", extent)

@@ -46,7 +46,7 @@ from mitsar.experiment.loading import apply_overrides, experiment_from_dict, rea
 from mitsar.experiment.montecarlo import DIRECTIONS, METRICS, measure_realisation
 from mitsar.focus.dispatch import ALGORITHMS
 from mitsar.io import atomic_writer, save
-from mitsar.plots.products import save_figure
+from mitsar.plots.figures import save_figure
 from mitsar.version import __version__
 
 __all__ = ["PointMeasure", "Variation", "measure_table", "parse_variation", "run_sweep",

@@ -29,7 +29,6 @@ line of sight and its azimuth axis the direction normal to it in which the line 
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -42,6 +41,7 @@ from mitsar import checks
 from mitsar.budget import require_memory
 from mitsar.errors import ParameterError
 from mitsar.model.radar import Radar
+from mitsar.products.image import vector_attr
 
 PIXEL_BYTES = 160
 """Peak bytes per image pixel: position (24), complex image (16), coverage and weights, the
@@ -362,16 +362,10 @@ def equivalent_position(image: xr.Dataset, position: ArrayLike) -> NDArray[np.fl
     position = np.asarray(position, dtype=float)
     if image.attrs.get("grid_kind") != "slant":
         return position
-    origin = np.asarray(_attr_vector(image.attrs["grid_origin"]))
-    along = np.asarray(_attr_vector(image.attrs["grid_along_track"]))
-    look = np.asarray(_attr_vector(image.attrs["grid_look"]))
+    origin = vector_attr(image, "grid_origin")
+    along = vector_attr(image, "grid_along_track")
+    look = vector_attr(image, "grid_look")
     offset = position - origin
     a = offset @ along
     r = np.linalg.norm(offset - a * along)
     return origin + a * along + r * look
-
-
-def _attr_vector(value: Any) -> list[float]:
-    if isinstance(value, str):
-        return json.loads(value)
-    return list(np.asarray(value, dtype=float))

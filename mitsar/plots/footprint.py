@@ -6,12 +6,11 @@
   and from above;
 * :func:`scene_range_marks` — NR / CS / FR of an image from the beam's intersection with the
   scene at the middle sweep (:func:`mitsar.scene.footprint.beam_marks`), in the slant grid's
-  range coordinate, for :func:`mitsar.plots.products.plot_image`.
+  range coordinate, for :func:`mitsar.plots.figures.plot_image`.
 """
 
 from __future__ import annotations
 
-import json
 import math
 from typing import Any
 
@@ -21,7 +20,8 @@ import xarray as xr
 from matplotlib.figure import Figure
 
 from mitsar.model.geometry.attitude import antenna_frame
-from mitsar.plots import products  # noqa: F401 - selects the Agg backend first
+from mitsar.plots import figures  # noqa: F401 - selects the Agg backend first
+from mitsar.products.image import vector_attr
 from mitsar.products.raw import look_of, radar_of
 from mitsar.scene.footprint import beam_footprint, beam_marks
 from mitsar.scene.surfaces import sample_surface_points
@@ -120,15 +120,11 @@ def scene_range_marks(image: xr.Dataset, raw: xr.Dataset | None, scene: Any
         positions, attitude = _track(raw)
         position, angles = positions[len(positions) // 2], attitude[len(positions) // 2]
     elif "mid_platform_attitude" in image.attrs:
-        position = _vector(image.attrs["mid_platform_position"])
-        angles = _vector(image.attrs["mid_platform_attitude"])
+        position = vector_attr(image, "mid_platform_position")
+        angles = vector_attr(image, "mid_platform_attitude")
     else:
         return {}
     frame = antenna_frame(look_of(image), *angles)
-    origin = _vector(image.attrs["grid_origin"])
-    along = _vector(image.attrs["grid_along_track"])
+    origin = vector_attr(image, "grid_origin")
+    along = vector_attr(image, "grid_along_track")
     return beam_marks(scene, position, frame, radar_of(image), origin, along)
-
-
-def _vector(value: Any) -> np.ndarray:
-    return np.asarray(json.loads(value) if isinstance(value, str) else value, dtype=float)

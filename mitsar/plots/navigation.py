@@ -18,7 +18,7 @@ from matplotlib.axes import Axes
 from numpy.typing import ArrayLike, NDArray
 
 from mitsar.errors import ParameterError
-from mitsar.plots import products  # noqa: F401 - selects the Agg backend first
+from mitsar.plots import figures  # noqa: F401 - selects the Agg backend first
 from mitsar.products.raw import radar_of
 
 __all__ = ["detrend", "navigation_phase", "plot_phase", "plot_tracks"]

@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 
 from mitsar.model.geometry.attitude import Look, antenna_frame
 from mitsar.model.radar import Radar
-from mitsar.plots import products  # noqa: F401 - selects the Agg backend first
+from mitsar.plots import figures  # noqa: F401 - selects the Agg backend first
 from mitsar.plots.footprint import scene_surfaces_points
 from mitsar.scene.footprint import beam_footprint
 from mitsar.scene.render import Camera, project, render_view, shape_kinds, unobstructed

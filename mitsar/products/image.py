@@ -25,13 +25,15 @@ import json
 
 import numpy as np
 import xarray as xr
+from numpy.typing import NDArray
 
 from mitsar.errors import ParameterError
 from mitsar.products.requests import CARRIED_ATTRS, REQUEST_ATTRS
 from mitsar.products.schema import Schema, Variable, validate
 from mitsar.version import __version__
 
-__all__ = ["IMAGE_SCHEMA", "carry_requests", "image_dims", "make_image_product", "validate_image"]
+__all__ = ["IMAGE_SCHEMA", "carry_requests", "image_dims", "make_image_product",
+           "validate_image", "vector_attr"]
 
 IMAGE_SCHEMA = Schema(
     product="image",
@@ -130,6 +132,14 @@ def make_image_product(raw: xr.Dataset, image: np.ndarray, layout: dict, process
     product["coverage"] = (dims, np.ones(image.shape) if coverage is None else coverage,
                            variables["coverage"].attrs())
     return product
+
+
+def vector_attr(product: xr.Dataset, key: str) -> NDArray[np.float64]:
+    """A vector attribute of a product (e.g. ``grid_origin`` [m]) as floats; also reads the
+    JSON text some files hold for lists."""
+    value = product.attrs[key]
+    return np.asarray(json.loads(value) if isinstance(value, str) else np.ravel(value),
+                      dtype=float)
 
 
 def carry_requests(raw: xr.Dataset, image: xr.Dataset) -> xr.Dataset:

@@ -328,6 +328,8 @@ def _plan(radar: Radar, trajectory: Trajectory, look: Look, targets: Sequence[Po
              "trajectory_straight": int((trajectory if recorded is None
                                          else recorded).is_straight), "config": config,
              **extra_attrs}
+    if targets:  # mitsar.products.requests: the targets, for the figures' marks
+        attrs["target_positions"] = tuple(float(v) for t in targets for v in t.position)
     if noise:  # docs/metrics.md §Noise
         attrs.update(noise_power=radar.noise_power, noise_seed=int(seed))
     return {"sweeps": sweeps, "geometry": geometry, "rng": rng, "positions": positions,

@@ -18,8 +18,8 @@ from mitsar.ambiguity.config import load_ambiguity_experiment
 from mitsar.experiment.loading import experiment_from_dict, read_toml
 from mitsar.io import check_writable
 from mitsar.model.signal import sweep_count
+from mitsar.plots.figures import save_figure
 from mitsar.plots.preview import plot_preview
-from mitsar.plots.products import save_figure
 from mitsar.raw.product import sweep_geometry
 from mitsar.scene import import_mitsuba, load_scene
 from mitsar.scene.render import stand_in_scene
@@ -49,7 +49,8 @@ def preview(path: str | Path, out: str | Path, overwrite: bool = False) -> Path:
         title = experiment.name or path.stem
     geometry = sweep_geometry(radar, trajectory, look, max(sweep_count(radar,
                                                                       trajectory.duration), 1))
-    scene = scene_or_stand_in(scene_name, planes, points, geometry["position"])
+    scene = scene_or_stand_in(None if scene_name is None else load_scene(scene_name), planes,
+                              points, geometry["position"])
     figure = plot_preview(scene, radar, look, geometry["position"], geometry["attitude"],
                           title=title)
     written = save_figure(figure, out, overwrite=overwrite, dpi=110)
@@ -57,12 +58,25 @@ def preview(path: str | Path, out: str | Path, overwrite: bool = False) -> Path:
     return written
 
 
-def scene_or_stand_in(scene_name: str | None, planes: list[dict], points: list,
+def scene_or_stand_in(scene: Any, planes: list[dict], points: list,
                       positions: np.ndarray) -> Any:
-    """The experiment's XML scene, or a stand-in: its rectangles, else a floor under the
-    targets and the track (:data:`_FLOOR_MARGIN` around them), with the targets as spheres."""
-    if scene_name is not None:
-        return load_scene(scene_name)
+    """The experiment's loaded scene (a ``mitsuba.Scene``), or when it is None a stand-in:
+    its rectangles, else a floor under the targets and the track (:data:`_FLOOR_MARGIN` around
+    them), with the targets as spheres.
+
+    Parameters
+    ----------
+    scene : mitsuba.Scene or None
+        The scene, loaded once by the caller.
+    planes : list of dict
+        Rectangles of an ambiguity file (``origin``, ``axis_u``, ``axis_v``, ``size`` [m]).
+    points : list of array_like
+        Point targets' positions [m].
+    positions : ndarray, shape (sweeps, 3)
+        Antenna positions [m].
+    """
+    if scene is not None:
+        return scene
     import_mitsuba()
     if not planes:
         corners = np.vstack([positions] + ([np.array(points)] if points else []))

@@ -22,66 +22,30 @@ Outputs are written atomically and never replace files unless ``overwrite``.
 
 from __future__ import annotations
 
-import dataclasses
 import time
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-import matplotlib.pyplot as plt
 import numpy as np
 
 from mitsar.ambiguity.run import run_ambiguity_experiment
-from mitsar.errors import MitsarError, ParameterError
+from mitsar.errors import ParameterError
 from mitsar.experiment import montecarlo
 from mitsar.experiment.loading import apply_overrides, experiment_from_dict, read_toml
 from mitsar.experiment.options import ALGORITHMS, Experiment
 from mitsar.experiment.paper import paper_table
 from mitsar.experiment.rays import run_rays
-from mitsar.experiment.runs import run_focus, run_metrics, run_simulation
-from mitsar.io import check_writable, save, write_json
+from mitsar.io import check_writable, write_json
 from mitsar.plots import navigation as plots_navigation
-from mitsar.plots.footprint import plot_footprint, scene_range_marks
+from mitsar.plots.footprint import plot_footprint
 from mitsar.plots.preview import plot_preview
-from mitsar.plots.products import (
-    background_samples,
-    beam_range_marks,
-    plot_background_histograms,
-    plot_cuts,
-    plot_image,
-    plot_range_compressed,
-    save_figure,
-    target_marks,
-)
 from mitsar.report.html import RUN_RECORD, build_report, provenance
+from mitsar.report.pipeline import RunFolder, run_pipeline
 from mitsar.report.preview import scene_or_stand_in
 from mitsar.scene import load_scene
 
 __all__ = ["run_experiment"]
-
-
-class _Run:
-    """The record being built, with a timer per step."""
-
-    def __init__(self, out: Path, overwrite: bool) -> None:
-        self.out, self.overwrite = out, overwrite
-        self.record: dict[str, Any] = {"steps": {}, "products": [], "figures": [],
-                                       "metrics": {}, "tables": [], "warnings": []}
-
-    def step(self, name: str, start: float) -> None:
-        self.record["steps"][name] = round(time.perf_counter() - start, 3)
-
-    def figure(self, figure: Any, file: str, title: str, caption: str = "") -> None:
-        save_figure(figure, self.out / file, overwrite=self.overwrite, dpi=110)
-        plt.close(figure)
-        self.record["figures"].append({"file": file, "title": title, "caption": caption})
-
-    def product(self, data: Any, file: str) -> None:
-        save(data, self.out / file, overwrite=self.overwrite)
-        self.record["products"].append(file)
-
-    def warn(self, message: str) -> None:
-        self.record["warnings"].append(message)
 
 
 def run_title(experiment: Experiment) -> str:
@@ -124,7 +88,7 @@ def run_experiment(path: str | Path, out_dir: str | Path, *, overrides: Sequence
     out.mkdir(parents=True, exist_ok=True)
     check_writable(out / RUN_RECORD, overwrite)
     document = read_toml(path)
-    run = _Run(out, overwrite)
+    run = RunFolder(out, overwrite)
     if _is_ambiguity(document):
         if overrides:
             raise ParameterError(str(path), "--set", "no overrides for an ambiguity file "
@@ -141,7 +105,7 @@ def run_experiment(path: str | Path, out_dir: str | Path, *, overrides: Sequence
     return build_report(out)
 
 
-def _ambiguity(run: _Run, path: Path, document: dict[str, Any], progress: bool) -> None:
+def _ambiguity(run: RunFolder, path: Path, document: dict[str, Any], progress: bool) -> None:
     start = time.perf_counter()
     summary = run_ambiguity_experiment(path, run.out / "ambiguity", overwrite=run.overwrite,
                                        figures=True, progress=progress)
@@ -165,64 +129,22 @@ def _ambiguity(run: _Run, path: Path, document: dict[str, Any], progress: bool) 
             run.record["products"].append(relative)
 
 
-def _experiment(run: _Run, experiment: Experiment, algorithms: Sequence[str] | None,
+def _experiment(run: RunFolder, experiment: Experiment, algorithms: Sequence[str] | None,
                 realisations: int, progress: bool) -> None:
     seeds = {"simulation": experiment.simulation.seed}
     if experiment.navigation is not None:
         seeds["navigation"] = experiment.navigation.seed
     run.record.update(kind="scene" if experiment.scene is not None else "point targets",
                       experiment=experiment.config, provenance=provenance(seeds))
-    # 1. simulate
-    start = time.perf_counter()
-    raw = run_simulation(experiment, progress=progress)
-    run.step("simulate", start)
-    run.product(raw, "raw.nc")
-    figure, ax = plt.subplots(figsize=(8, 5), layout="constrained")
-    plot_range_compressed(raw, ax=ax)
-    run.figure(figure, "range_compressed.png", "Range-compressed data",
-               "slant range across, slow time down (paper eq. 1, one FFT per sweep)")
-    if "background_reflectivity" in raw.variables:
-        axes = plot_background_histograms(*background_samples(raw),
-                                          label=f"{experiment.background.cell_rcs_db:g} dB")
-        run.figure(axes[0].figure, "background.png", "Background reflectivity",
-                   "amplitude against the Rayleigh density and phase against the uniform one, "
-                   "one sweep (paper Fig. 7)")
-    if "true_platform_position" in raw.variables:
-        axes = plots_navigation.plot_tracks(raw)
-        run.figure(axes[0].figure, "tracks.png", "True and navigation track",
-                   "the echoes come from the true track; focusers know the navigation track")
-    truth = "true_" if "true_platform_position" in raw.variables else ""
-    positions = raw[f"{truth}platform_position"].values
-    shown = scene_or_stand_in(experiment.scene, [], [np.asarray(t.position, float)
-                                                     for t in experiment.targets], positions)
-    run.figure(plot_preview(shown, experiment.radar, experiment.look, positions,
-                            raw[f"{truth}attitude"].values, title=run_title(experiment)),
-               "preview.png", "Scene preview",
-               "rendered by Mitsuba, materials by kind; track, antenna and beam footprint at "
-               "the first, middle and last sweep (a stand-in floor without a scene)")
-    scene = None
-    if experiment.scene is not None:
-        scene = load_scene(experiment.scene)
-        run.figure(plot_footprint(scene, raw, title=f"beam footprint: {experiment.scene}"),
-                   "footprint.png", "Beam footprint",
-                   "first hits of rays inside the nominal beam at the first, middle and last "
-                   "sweep, surfaces in grey (paper Figs. 12, 14)")
-    # 2. rays of a traced multipath scene
-    if experiment.scene is not None and (experiment.simulation.max_depth or 1) > 1:
-        start = time.perf_counter()
-        summary = run_rays(experiment, run.out / "rays", overwrite=run.overwrite)
-        run.step("rays", start)
-        for name, file in summary["figures"].items():
-            run.record["figures"].append({"file": f"rays/{Path(file).name}",
-                                          "title": f"Rays: {name}",
-                                          "caption": "paper Figs. 6, 10, 11"})
-    # 3. focus and measure with every algorithm
     chosen = list(algorithms) if algorithms else [experiment.focus.algorithm]
     unknown = [a for a in chosen if a not in ALGORITHMS]
     if unknown:
         raise ParameterError("run", "algorithms", f"names among {ALGORITHMS}", unknown)
-    for algorithm in chosen:
-        _focus_and_measure(run, experiment, raw, algorithm, progress, scene)
+    # The scene is loaded once, here, for every figure that draws it.
+    scene = None if experiment.scene is None else load_scene(experiment.scene)
+    # 1. simulate, 2. figures of the acquisition, 3. focus and measure with every algorithm
+    run_pipeline(run, experiment, chosen, scene=scene, progress=progress,
+                 after_simulation=lambda raw: _acquisition_figures(run, experiment, raw, scene))
     # 4. Monte Carlo
     if realisations > 0:
         start = time.perf_counter()
@@ -241,40 +163,36 @@ def _experiment(run: _Run, experiment: Experiment, algorithms: Sequence[str] | N
                            "on an absorbing background (paper Figs. 8-9)"})
 
 
-def _focus_and_measure(run: _Run, experiment: Experiment, raw: Any, algorithm: str,
-                       progress: bool, scene: Any = None) -> None:
-    options = dataclasses.replace(experiment.focus, algorithm=algorithm)
-    start = time.perf_counter()
-    try:
-        image = run_focus(raw, options, progress=progress)
-    except (ParameterError, MitsarError) as error:
-        run.warn(f"{algorithm}: not focused: {error}")
-        return
-    run.step(f"focus {algorithm}", start)
-    run.product(image, f"image_{algorithm}.nc")
-    figure, ax = plt.subplots(figsize=(7, 6), layout="constrained")
-    marks = (beam_range_marks(image) if scene is None
-             else scene_range_marks(image, raw, scene))
-    plot_image(image, ax=ax, marks=target_marks(image), range_marks=marks)
-    run.figure(figure, f"image_{algorithm}.png", f"Image, {algorithm.upper()}",
-               f"{options.window} window, azimuth resolution "
-               f"{options.azimuth_resolution or 'whole beam'} m; dB re peak")
-    if not experiment.targets and experiment.metrics.target is None:
-        return
-    start = time.perf_counter()
-    try:
-        metrics = run_metrics(image)
-    except (ParameterError, MitsarError, ValueError) as error:
-        run.warn(f"{algorithm}: not measured: {error}")
-        run.record["metrics"][algorithm] = str(error)
-        return
-    run.step(f"metrics {algorithm}", start)
-    run.record["metrics"][algorithm] = metrics
-    for warning in metrics.get("warnings", []):
-        run.warn(f"{algorithm}: {warning}")
-    axes = plot_cuts(image, metrics)
-    run.figure(axes[0].figure, f"cuts_{algorithm}.png", f"Cuts, {algorithm.upper()}",
-               "range and azimuth cuts through the peak, IRW / PSLR / ISLR in the legends")
+def _acquisition_figures(run: RunFolder, experiment: Experiment, raw: Any,
+                         scene: Any) -> None:
+    """Tracks, preview, footprint and multipath rays of a simulated acquisition."""
+    if "true_platform_position" in raw.variables:
+        axes = plots_navigation.plot_tracks(raw)
+        run.figure(axes[0].figure, "tracks.png", "True and navigation track",
+                   "the echoes come from the true track; focusers know the navigation track")
+    truth = "true_" if "true_platform_position" in raw.variables else ""
+    positions = raw[f"{truth}platform_position"].values
+    shown = scene_or_stand_in(scene, [], [np.asarray(t.position, float)
+                                          for t in experiment.targets], positions)
+    run.figure(plot_preview(shown, experiment.radar, experiment.look, positions,
+                            raw[f"{truth}attitude"].values, title=run_title(experiment)),
+               "preview.png", "Scene preview",
+               "rendered by Mitsuba, materials by kind; track, antenna and beam footprint at "
+               "the first, middle and last sweep (a stand-in floor without a scene)")
+    if scene is not None:
+        run.figure(plot_footprint(scene, raw, title=f"beam footprint: {experiment.scene}"),
+                   "footprint.png", "Beam footprint",
+                   "first hits of rays inside the nominal beam at the first, middle and last "
+                   "sweep, surfaces in grey (paper Figs. 12, 14)")
+    # rays of a traced multipath scene
+    if scene is not None and (experiment.simulation.max_depth or 1) > 1:
+        start = time.perf_counter()
+        summary = run_rays(experiment, run.out / "rays", overwrite=run.overwrite)
+        run.step("rays", start)
+        for name, file in summary["figures"].items():
+            run.record["figures"].append({"file": f"rays/{Path(file).name}",
+                                          "title": f"Rays: {name}",
+                                          "caption": "paper Figs. 6, 10, 11"})
 
 
 def _montecarlo_table(summary: Any, realisations: int, background: Any) -> dict[str, Any]:

@@ -15,7 +15,6 @@ figures can be composed.
 
 from __future__ import annotations
 
-import json
 import os
 import warnings
 from collections.abc import Mapping, Sequence
@@ -39,7 +38,9 @@ from mitsar.focus.compression import range_compress  # noqa: E402
 from mitsar.focus.grid import equivalent_position  # noqa: E402
 from mitsar.io import atomic_output, check_writable, load  # noqa: E402
 from mitsar.model.geometry.attitude import Look, boresight  # noqa: E402
+from mitsar.products.image import vector_attr  # noqa: E402
 from mitsar.products.raw import radar_of  # noqa: E402
+from mitsar.products.requests import target_positions  # noqa: E402
 
 __all__ = [
     "plot_background_histograms",
@@ -231,8 +232,8 @@ def beam_range_marks(image: xr.Dataset, floor_z: float = 0.0) -> dict[str, float
     """
     if image.attrs.get("grid_kind") != "slant" or "look_off_nadir_deg" not in image.attrs:
         return {}
-    origin = np.asarray(_json_list(image.attrs["grid_origin"]), dtype=float)
-    along = np.asarray(_json_list(image.attrs["grid_along_track"]), dtype=float)
+    origin = vector_attr(image, "grid_origin")
+    along = vector_attr(image, "grid_along_track")
     height = origin[2] - floor_z
     half = np.degrees(radar_of(image).elevation_beamwidth) / 2
     off_nadir = float(image.attrs["look_off_nadir_deg"])
@@ -246,10 +247,6 @@ def beam_range_marks(image: xr.Dataset, floor_z: float = 0.0) -> dict[str, float
         slant = height / -sight[2]
         marks[name] = float(slant * np.sqrt(max(1.0 - (sight @ along) ** 2, 0.0)))
     return marks
-
-
-def _json_list(value: Any) -> list[float]:
-    return json.loads(value) if isinstance(value, str) else list(np.ravel(value))
 
 
 def _cut_through_peak(image: xr.Dataset, metrics: Mapping[str, Any] | None
@@ -435,7 +432,7 @@ def plot_file(path: str | os.PathLike, out: str | os.PathLike, overwrite: bool =
     """Plot a product file with its natural figure and save it.
 
     A raw or range-compressed product gives the range-compressed matrix, an image product the
-    image in dB (with its experiment's targets marked).
+    image in dB (with its point targets marked).
 
     Parameters
     ----------
@@ -478,18 +475,13 @@ def plot_file(path: str | os.PathLike, out: str | os.PathLike, overwrite: bool =
 
 
 def target_marks(image: xr.Dataset) -> dict[str, list[float]]:
-    """Marks for the point targets of the experiment recorded in an image product."""
-    config = image.attrs.get("experiment") or image.attrs.get("raw_config")
-    if not config:
-        return {}
-    try:
-        targets = json.loads(config).get("targets") or []
-    except (TypeError, ValueError):
-        return {}
+    """Marks for the point targets recorded in an image product (``target_positions``,
+    :mod:`mitsar.products.requests`) that fall inside it."""
+    positions = target_positions(image)
     marks = {}
-    for index, target in enumerate(targets):
-        name = "target" if len(targets) == 1 else f"target {index}"
-        marks[name] = list(target["position"])
+    for index, position in enumerate(positions):
+        name = "target" if len(positions) == 1 else f"target {index}"
+        marks[name] = [float(v) for v in position]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         return {k: v for k, v in marks.items() if _mark_location(image, v) is not None}

@@ -11,15 +11,16 @@ from typing import Any
 
 from mitsar.cli.common import log
 from mitsar.errors import MitsarError
-from mitsar.experiment.loading import focus_options_from_config, load_experiment, load_grid
+from mitsar.experiment.loading import load_experiment, load_grid
 from mitsar.experiment.options import FocusOptions
 from mitsar.experiment.parsers import MAX_SEED
 from mitsar.experiment.runs import run_focus, run_metrics, simulate_to
 from mitsar.export import write_cphd, write_sicd
 from mitsar.focus.compression import range_compress
 from mitsar.io import check_writable, load, save, to_jsonable, write_json
+from mitsar.plots.figures import plot_file
 from mitsar.plots.footprint import scene_range_marks
-from mitsar.plots.products import plot_file
+from mitsar.products.requests import focus_request, scene_of
 from mitsar.scene import load_scene
 
 __all__ = ["cmd_export", "cmd_focus", "cmd_metrics", "cmd_plot", "cmd_range", "cmd_simulate",
@@ -58,10 +59,9 @@ def cmd_range(args: argparse.Namespace) -> int:
 
 
 def _focus_options(args: argparse.Namespace, raw: Any) -> Any:
-    """Focus options: command-line flags over ``--grid`` over the raw's experiment."""
-    config = raw.attrs.get("experiment")
-    options = (focus_options_from_config(config, where=f"{args.raw} (experiment)")
-               if config else FocusOptions())
+    """Focus options: command-line flags over ``--grid`` over the options the raw product
+    records (:func:`mitsar.products.requests.focus_request`)."""
+    options = FocusOptions(**focus_request(raw))
     changes: dict[str, Any] = {}
     if args.algorithm is not None:
         changes["algorithm"] = args.algorithm
@@ -154,10 +154,10 @@ def cmd_metrics(args: argparse.Namespace) -> int:
 def _scene_marks(path: str) -> dict[str, float] | None:
     """NR / CS / FR of an image of a scene experiment from the beam's hits in its scene."""
     product = load(path)
-    config = json.loads(product.attrs.get("experiment", "{}") or "{}")
-    if product.attrs.get("product") != "image" or not config.get("scene"):
+    scene = scene_of(product)
+    if product.attrs.get("product") != "image" or not scene:
         return None
-    return scene_range_marks(product, None, load_scene(config["scene"])) or None
+    return scene_range_marks(product, None, load_scene(scene)) or None
 
 
 def cmd_plot(args: argparse.Namespace) -> int:

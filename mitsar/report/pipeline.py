@@ -1,0 +1,210 @@
+"""One run of an experiment: simulate -> focus -> measure -> plot, into a folder.
+
+:func:`run_pipeline` is the one place that chains the stages; ``mitsar run``
+(:func:`mitsar.report.run.run_experiment`) and ``mitsar demo`` (:mod:`mitsar.cli.demo`) both
+call it, with their own file names (:class:`PipelineFiles`). What the figures and metrics need
+(targets, metrics target, ISLR extent) they read from the products
+(:mod:`mitsar.products`), not from the experiment.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import matplotlib.pyplot as plt
+import xarray as xr
+
+from mitsar.errors import MitsarError, ParameterError
+from mitsar.experiment.options import Experiment
+from mitsar.experiment.runs import run_focus, run_metrics, run_simulation
+from mitsar.io import save
+from mitsar.plots.figures import (
+    background_samples,
+    beam_range_marks,
+    plot_background_histograms,
+    plot_cuts,
+    plot_image,
+    plot_range_compressed,
+    save_figure,
+    target_marks,
+)
+from mitsar.plots.footprint import scene_range_marks
+from mitsar.products.requests import metrics_request
+
+__all__ = ["PipelineFiles", "PipelineResult", "RunFolder", "run_pipeline"]
+
+
+class RunFolder:
+    """An output folder and the record being built in it, with a timer per step.
+
+    Parameters
+    ----------
+    out : Path
+        The folder (file names below are relative to it; absolute ones are kept).
+    overwrite : bool
+        Replace existing files.
+    """
+
+    def __init__(self, out: Path, overwrite: bool) -> None:
+        self.out, self.overwrite = Path(out), overwrite
+        self.record: dict[str, Any] = {"steps": {}, "products": [], "figures": [],
+                                       "metrics": {}, "tables": [], "warnings": []}
+        self.plot_seconds = 0.0
+
+    def step(self, name: str, start: float) -> None:
+        """Record the wall time [s] of step ``name`` started at ``start``."""
+        self.record["steps"][name] = round(time.perf_counter() - start, 3)
+
+    def figure(self, figure: Any, file: str, title: str, caption: str = "") -> None:
+        """Save a figure (110 dpi) and list it in the record."""
+        start = time.perf_counter()
+        save_figure(figure, self.out / file, overwrite=self.overwrite, dpi=110)
+        plt.close(figure)
+        self.record["figures"].append({"file": str(file), "title": title, "caption": caption})
+        self.plot_seconds += time.perf_counter() - start
+
+    def product(self, data: Any, file: str) -> None:
+        """Save a product and list it in the record."""
+        save(data, self.out / file, overwrite=self.overwrite)
+        self.record["products"].append(str(file))
+
+    def warn(self, message: str) -> None:
+        """Record a warning (a step that could not run)."""
+        self.record["warnings"].append(message)
+
+
+@dataclass(frozen=True)
+class PipelineFiles:
+    """File names of one run; ``{algorithm}`` is replaced by the focusing algorithm."""
+
+    raw: str = "raw.nc"
+    range_figure: str = "range_compressed.png"
+    background_figure: str = "background.png"
+    image: str = "image_{algorithm}.nc"
+    image_figure: str = "image_{algorithm}.png"
+    cuts_figure: str = "cuts_{algorithm}.png"
+
+
+@dataclass
+class PipelineResult:
+    """What :func:`run_pipeline` made: the raw product, and per algorithm the image and its
+    metrics (a dict, or the reason it could not be measured)."""
+
+    raw: xr.Dataset
+    images: dict[str, xr.Dataset] = dataclasses.field(default_factory=dict)
+    metrics: dict[str, Any] = dataclasses.field(default_factory=dict)
+
+
+def run_pipeline(run: RunFolder, experiment: Experiment, algorithms: Sequence[str], *,
+                 raw: xr.Dataset | None = None, scene: Any = None, progress: bool = False,
+                 strict: bool = False, files: PipelineFiles = PipelineFiles(),
+                 log: Callable[[str], None] | None = None,
+                 after_simulation: Callable[[xr.Dataset], None] | None = None
+                 ) -> PipelineResult:
+    """Simulate an experiment, focus it with each algorithm, measure and plot each image.
+
+    Parameters
+    ----------
+    run : RunFolder
+        Where the products and figures go, and the record of steps, metrics and warnings.
+    experiment : Experiment
+        The loaded experiment.
+    algorithms : sequence of str
+        Focusing algorithms, in order.
+    raw : xarray.Dataset, optional
+        The raw product when it is already simulated (then not simulated or saved again).
+    scene : mitsuba.Scene, optional
+        The experiment's loaded scene: the images' near / centre / far range marks come from
+        its surfaces (else from the beam on a horizontal floor).
+    progress : bool
+        Show progress bars.
+    strict : bool
+        Raise when an image cannot be focused or measured (else record a warning and go on).
+    files : PipelineFiles
+        Output file names.
+    log : callable, optional
+        Receives one line per step.
+    after_simulation : callable, optional
+        Called with the raw product before focusing (further figures of the acquisition).
+
+    Returns
+    -------
+    PipelineResult
+    """
+    log = log or (lambda message: None)
+    if raw is None:
+        log("simulating raw data ...")
+        start = time.perf_counter()
+        raw = run_simulation(experiment, progress=progress)
+        run.step("simulate", start)
+        run.product(raw, files.raw)
+    result = PipelineResult(raw)
+    figure, ax = plt.subplots(figsize=(8, 5), layout="constrained")
+    plot_range_compressed(raw, ax=ax)
+    run.figure(figure, files.range_figure, "Range-compressed data",
+               "slant range across, slow time down (paper eq. 1, one FFT per sweep)")
+    if "background_reflectivity" in raw.variables:
+        level = None if experiment.background is None else experiment.background.cell_rcs_db
+        label = (f"{level:g} dB background, first sweep" if level is not None
+                 else "background, first sweep")
+        axes = plot_background_histograms(*background_samples(raw), label=label)
+        run.figure(axes[0].figure, files.background_figure, "Background reflectivity",
+                   "amplitude against the Rayleigh density and phase against the uniform one, "
+                   "one sweep (paper Fig. 7)")
+    if after_simulation is not None:
+        after_simulation(raw)
+    for algorithm in algorithms:
+        _focus_and_measure(run, experiment, result, algorithm, scene, progress, strict, files,
+                           log)
+    return result
+
+
+def _focus_and_measure(run: RunFolder, experiment: Experiment, result: PipelineResult,
+                       algorithm: str, scene: Any, progress: bool, strict: bool,
+                       files: PipelineFiles, log: Callable[[str], None]) -> None:
+    options = dataclasses.replace(experiment.focus, algorithm=algorithm)
+    log(f"focusing ({algorithm.upper()}) ...")
+    start = time.perf_counter()
+    try:
+        image = run_focus(result.raw, options, progress=progress)
+    except (ParameterError, MitsarError) as error:
+        if strict:
+            raise
+        run.warn(f"{algorithm}: not focused: {error}")
+        return
+    run.step(f"focus {algorithm}", start)
+    result.images[algorithm] = image
+    run.product(image, files.image.format(algorithm=algorithm))
+    figure, ax = plt.subplots(figsize=(7, 6), layout="constrained")
+    marks = (beam_range_marks(image) if scene is None
+             else scene_range_marks(image, result.raw, scene))
+    plot_image(image, ax=ax, marks=target_marks(image), range_marks=marks)
+    run.figure(figure, files.image_figure.format(algorithm=algorithm),
+               f"Image, {algorithm.upper()}",
+               f"{options.window} window, azimuth resolution "
+               f"{options.azimuth_resolution or 'whole beam'} m; dB re peak")
+    if not strict and metrics_request(image)[0] is None:
+        return
+    log("measuring the impulse response ...")
+    start = time.perf_counter()
+    try:
+        metrics = run_metrics(image)
+    except (ParameterError, MitsarError, ValueError) as error:
+        if strict:
+            raise
+        run.warn(f"{algorithm}: not measured: {error}")
+        run.record["metrics"][algorithm] = result.metrics[algorithm] = str(error)
+        return
+    run.step(f"metrics {algorithm}", start)
+    run.record["metrics"][algorithm] = result.metrics[algorithm] = metrics
+    for warning in metrics.get("warnings", []):
+        run.warn(f"{algorithm}: {warning}")
+    axes = plot_cuts(image, metrics)
+    run.figure(axes[0].figure, files.cuts_figure.format(algorithm=algorithm),
+               f"Cuts, {algorithm.upper()}",
+               "range and azimuth cuts through the peak, IRW / PSLR / ISLR in the legends")
