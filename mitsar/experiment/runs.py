@@ -49,7 +49,7 @@ def run_simulation(experiment: Experiment, progress: bool = False) -> xr.Dataset
         The raw product; its attributes also record the experiment (``experiment``, a JSON
         string of :attr:`Experiment.config`) and its source file (``experiment_source``).
     """
-    options = experiment.simulation
+    options = experiment.simulation  # the experiment's layer of the trace request
     if experiment.scene is not None:
         # An experiment whose echoes are all zero is refused (the API only warns).
         with warnings.catch_warnings():
@@ -58,15 +58,13 @@ def run_simulation(experiment: Experiment, progress: bool = False) -> xr.Dataset
                 raw = simulate_scene(
                     experiment.radar, experiment.trajectory, experiment.look, experiment.scene,
                     targets=experiment.targets, background=experiment.background,
-                    seed=options.seed, density=options.scatterer_density,
-                    orders=options.orders, rvp=options.rvp, normalized=options.normalized,
-                    progress=progress, navigation=experiment.navigation, noise=options.noise,
-                    physical_optics=options.physical_optics, motion=experiment.motion,
-                    **options.multipath())
+                    options=options, navigation=experiment.navigation,
+                    motion=experiment.motion, progress=progress)
             except MitsarWarning as warning:
                 where = experiment.source or "experiment"
                 raise MitsarError(f"{where}: scene {experiment.scene!r}: {warning}") from None
     else:
+        options = options.resolve(str(experiment.source or "experiment"))
         raw = simulate_point_targets(
             experiment.radar, experiment.trajectory, experiment.look, experiment.targets,
             background=experiment.background, seed=options.seed, rvp=options.rvp,
@@ -118,7 +116,7 @@ def simulate_to(experiment: Experiment, path: str | os.PathLike, overwrite: bool
         raw = run_simulation(experiment, progress=progress)
         save(raw, path, overwrite=overwrite)
         return int(raw.sizes["sweep"])
-    options = experiment.simulation
+    options = experiment.simulation.resolve(str(experiment.source or "experiment"))
     chunks = stream_point_targets(
         experiment.radar, experiment.trajectory, experiment.look, experiment.targets,
         background=experiment.background, seed=options.seed, rvp=options.rvp,
