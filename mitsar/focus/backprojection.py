@@ -92,6 +92,13 @@ def derotate(real: Any, imag: Any, sin_phase: Any, cos_phase: Any) -> tuple[Any,
     return real * cos_phase + imag * sin_phase, imag * cos_phase - real * sin_phase
 
 
+def half_path(outgoing: Any, incoming: Any) -> Any:
+    """Half the bistatic path ``(|t - x| + |x - r|) / 2`` [m]: the range that a monostatic
+    back-projection's lookup and carrier phase (``2 R / c``) take for a channel whose
+    transmitter and receiver differ (docs/interferometry.md). NumPy and Dr.Jit alike."""
+    return 0.5 * (outgoing + incoming)
+
+
 def pulse_sum(profile: NDArray, frequency: NDArray, delay: NDArray, beat: NDArray,
               weight: NDArray, carrier_frequency: float, periodic: bool = False
               ) -> tuple[NDArray, NDArray]:
@@ -142,7 +149,8 @@ def backproject_numpy(profile: NDArray, frequency: NDArray, radar: Radar, pixels
                       positions: NDArray, velocities: NDArray, centroid_sine: NDArray,
                       half_width: float, window: NDArray,
                       motion_correction: bool = True,
-                      aspect: tuple[NDArray, NDArray] | None = None) -> tuple[NDArray, NDArray]:
+                      aspect: tuple[NDArray, NDArray] | None = None,
+                      receivers: NDArray | None = None) -> tuple[NDArray, NDArray]:
     """Reference back-projection in NumPy (same sum as the Dr.Jit kernel, all in memory).
 
     Parameters
@@ -164,6 +172,12 @@ def backproject_numpy(profile: NDArray, frequency: NDArray, radar: Radar, pixels
     aspect : (ndarray (P, 3), ndarray (P,)), optional
         Per-pixel window frame (:func:`mitsar.focus.aperture.aspect_frames`): the window is
         then evaluated at ``d_pixel . l_hat - u_pixel`` instead of ``v_hat . l_hat - u_c``.
+    receivers : ndarray, shape (S, 3), optional
+        A bistatic channel's receive phase centre per sweep [m] (``positions`` is then its
+        transmitter): the delay is the exact path ``(|t - x| + |x - r|) / c``
+        (:func:`mitsar.model.signal.bistatic_delay`), looked up as a "range" of half the path
+        (:func:`half_path`); direction sine and delay rate stay the transmitter's (a receiver
+        centimetres away changes them by ~1e-5).
 
     Returns
     -------
@@ -173,6 +187,9 @@ def backproject_numpy(profile: NDArray, frequency: NDArray, radar: Radar, pixels
         Sum of the weights (see :func:`mitsar.focus.aperture.normalise_image`).
     """
     slant_range, sine, delay_rate = doppler_geometry(pixels, positions, velocities)
+    if receivers is not None:
+        slant_range = half_path(slant_range, np.linalg.norm(
+            pixels[None] - receivers[:, None], axis=-1))
     delay = 2.0 * slant_range / SPEED_OF_LIGHT
     beat = beat_frequency(delay, delay_rate if motion_correction else 0.0, radar.chirp_rate,
                           radar.carrier_frequency)
@@ -203,7 +220,8 @@ def backproject_drjit(profile: NDArray, frequency: NDArray, radar: Radar, pixels
                       positions: NDArray, velocities: NDArray, centroid_sine: NDArray,
                       half_width: float, window: NDArray, motion_correction: bool = True,
                       sweep_range: tuple[NDArray, NDArray] | None = None,
-                      aspect: tuple[NDArray, NDArray] | None = None
+                      aspect: tuple[NDArray, NDArray] | None = None,
+                      receivers: NDArray | None = None
                       ) -> tuple[NDArray, NDArray]:
     """Back-projection as one Dr.Jit kernel (parameters as :func:`backproject_numpy`).
 
@@ -229,7 +247,7 @@ def backproject_drjit(profile: NDArray, frequency: NDArray, radar: Radar, pixels
     lanes = len(groups)
     constants, sweep_arrays, pairs = kernel_tables(profile, frequency, radar, positions,
                                                    velocities, centroid_sine, half_width,
-                                                   window, motion_correction)
+                                                   window, motion_correction, receivers)
     index = groups.ravel()
     count = len(pixels)
     natural = bool(np.array_equal(index[:count], np.arange(count)))
@@ -274,14 +292,15 @@ def backproject_drjit(profile: NDArray, frequency: NDArray, radar: Radar, pixels
 
 def kernel_tables(profile: NDArray, frequency: NDArray, radar: Radar, positions: NDArray,
                   velocities: NDArray, centroid_sine: NDArray, half_width: float,
-                  window: NDArray, motion_correction: bool = True) -> tuple[dict, list, Any]:
+                  window: NDArray, motion_correction: bool = True,
+                  receivers: NDArray | None = None) -> tuple[dict, list, Any]:
     """Constants, per-sweep geometry and packed profiles that :func:`pixel_pulse` reads.
 
     Parameters as :func:`backproject_numpy`. Returns the kernel constants (opaque scalars:
     profile position of ``K tau`` and of the Doppler term, carrier turns per metre, bins,
     half width, window coefficients), the sweep arrays (position float64; unit direction,
-    speed and centroid sine float32) and the profiles as one 64-bit (real, imag) float32 word
-    per bin.
+    speed and centroid sine float32; a bistatic channel's receiver position float64) and the
+    profiles as one 64-bit (real, imag) float32 word per bin.
     """
     sweeps, bins = profile.shape
     _, speed, direction, coefficients = _kernel_inputs(positions[:0], sweeps, velocities,
@@ -301,7 +320,9 @@ def kernel_tables(profile: NDArray, frequency: NDArray, radar: Radar, positions:
     sweep_arrays = ([jit_array(Float64, positions[:, i], np.float64) for i in range(3)]
                     + [jit_array(Float32, a, np.float32) for a in (
                         direction[:, 0], direction[:, 1], direction[:, 2], speed,
-                        centroid_sine)])
+                        centroid_sine)]
+                    + ([] if receivers is None else
+                       [jit_array(Float64, receivers[:, i], np.float64) for i in range(3)]))
     # Profiles are read at random: (real, imag) float32 pairs, one 64-bit word per bin.
     pairs = jit_array(UInt64, np.ascontiguousarray(profile, dtype=np.complex64)
                       .view(np.uint64).ravel(), np.uint64)
@@ -352,11 +373,14 @@ def pixel_pulse(k: UInt32, pixel: tuple, sweep: tuple, pairs: UInt64, constants:
     de-rotation and the window in float32.
     """
     x, y, z, first, end = pixel[:5]
-    gx, gy, gz, ux, uy, uz, speed, centroid = sweep
+    gx, gy, gz, ux, uy, uz, speed, centroid = sweep[:8]
     bins, half_width = constants["bins"], constants["half_width"]
     ox, oy, oz = x - gx, y - gy, z - gz
     slant_range = dr.sqrt(ox * ox + oy * oy + oz * oz)
     inverse_range = dr.rcp(Float32(slant_range))
+    if len(sweep) > 8:  # a bistatic channel: half its exact path (half_path)
+        ex, ey, ez = x - sweep[8], y - sweep[9], z - sweep[10]
+        slant_range = half_path(slant_range, dr.sqrt(ex * ex + ey * ey + ez * ez))
     sine = (Float32(ox) * ux + Float32(oy) * uy + Float32(oz) * uz) * inverse_range
     # Bin of K tau (float64), then the Doppler term f_c dtau/dt (float32, a few bins at most).
     lower, fraction = profile_position(slant_range * constants["range_scale"],
@@ -397,8 +421,7 @@ def pulse_loop(lane_pixels: list, first: UInt32, end: UInt32, sweep_arrays: list
         return k < end
 
     def body(k: UInt32, *accumulators: Float32) -> tuple:
-        sweep = tuple([dr.gather(Float64, a, k) for a in sweep_arrays[:3]]
-                      + [dr.gather(Float32, a, k) for a in sweep_arrays[3:]])
+        sweep = tuple(dr.gather(type(a), a, k) for a in sweep_arrays)
         out = []
         for g, pixel in enumerate(lane_pixels):
             parts = pixel_pulse(k, pixel, sweep, pairs, constants)

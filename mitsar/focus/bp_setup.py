@@ -33,6 +33,7 @@ from mitsar.focus.aperture import (
 from mitsar.focus.compression import range_spectrum
 from mitsar.focus.grid import track_frame
 from mitsar.focus.windows import window_coefficients
+from mitsar.model.geometry.attitude import body_to_world
 from mitsar.model.radar import Radar
 from mitsar.model.signal import fast_time
 from mitsar.products.raw import radar_of
@@ -83,6 +84,30 @@ class Prepared:
     kernel_window: NDArray[np.float64]
     frequency: NDArray[np.float64]
     profile: NDArray[np.complexfloating]
+    receivers: NDArray[np.float64] | None = None
+    """A bistatic channel's receive phase centre per sweep [m] (``positions`` is then its
+    transmitter's); None: monostatic (:func:`channel_phase_centres`)."""
+
+
+def channel_phase_centres(raw: xr.Dataset) -> tuple[NDArray, NDArray | None]:
+    """The transmitter's position per sweep [m], and the receiver's where it differs.
+
+    A single-channel product is monostatic at its track (``platform_position``). One channel of
+    a multi-channel product (:func:`mitsar.focus.channels.channel_view`) carries its
+    body-frame ``transmitter_offset`` and ``receiver_offset`` [m]: each is placed at the track
+    point plus the offset rotated by the sweep's attitude
+    (:func:`mitsar.model.geometry.attitude.body_to_world`), as the simulators do.
+    """
+    positions = np.asarray(raw["platform_position"].values, dtype=float)
+    if "transmitter_offset" not in raw.variables:
+        return positions, None
+    rotation = body_to_world(*np.asarray(raw["attitude"].values, dtype=float).T)
+    transmitter_offset = np.asarray(raw["transmitter_offset"].values, dtype=float)
+    receiver_offset = np.asarray(raw["receiver_offset"].values, dtype=float)
+    transmitters = positions + rotation @ transmitter_offset
+    if np.array_equal(transmitter_offset, receiver_offset):
+        return transmitters, None
+    return transmitters, positions + rotation @ receiver_offset
 
 
 def prepare(raw: xr.Dataset, *, half_width: float, window: str, range_window: str,
@@ -128,7 +153,7 @@ def prepare(raw: xr.Dataset, *, half_width: float, window: str, range_window: st
     if band_selection == "doppler" and not straight:
         raise ParameterError("focus", "band_selection",
                              "'pixel' for a curved track or a varying speed", band_selection)
-    positions = raw["platform_position"].values
+    positions, receivers = channel_phase_centres(raw)
     velocities = raw["platform_velocity"].values
     speed = np.linalg.norm(velocities, axis=-1)
     centroid = np.einsum("si,si->s", raw["boresight"].values, velocities) / np.where(
@@ -156,7 +181,7 @@ def prepare(raw: xr.Dataset, *, half_width: float, window: str, range_window: st
                     mean_speed=mean_speed, mean_centroid=mean_centroid,
                     beam_half_width=beam_half_width, coefficients=coefficients,
                     kernel_half_width=kernel_half_width, kernel_window=kernel_window,
-                    frequency=frequency, profile=profile)
+                    frequency=frequency, profile=profile, receivers=receivers)
 
 
 def aperture_weights(prepared: Prepared, raw: xr.Dataset, pixels: NDArray, half_width: float,

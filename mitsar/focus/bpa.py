@@ -107,7 +107,8 @@ def focus_bpa(raw: xr.Dataset, pixels: NDArray, *, half_width: float, window: st
     if bp.band_selection == "pixel" and not bp.straight and half_width < bp.beam_half_width:
         aspect = aspect_frames(pixels, positions, bp.velocities, bp.centroid)
     if backend == "numpy":
-        results = [backproject_numpy(*arguments, pixels[c], *common, aspect=_rows(aspect, c))
+        results = [backproject_numpy(*arguments, pixels[c], *common, aspect=_rows(aspect, c),
+                                     receivers=bp.receivers)
                    for c in chunks]
     else:
         if bp.straight:
@@ -117,7 +118,8 @@ def focus_bpa(raw: xr.Dataset, pixels: NDArray, *, half_width: float, window: st
             ranges = curved_sweep_range(pixels, positions, bp.velocities, bp.centroid,
                                         bp.kernel_half_width, aspect)
         results = [backproject_drjit(*arguments, pixels[c], *common,
-                                     sweep_range=_rows(ranges, c), aspect=_rows(aspect, c))
+                                     sweep_range=_rows(ranges, c), aspect=_rows(aspect, c),
+                                     receivers=bp.receivers)
                    for c in chunks]
     # 4. normalisation by the full-aperture weight
     sums, totals = zip(*results, strict=True)

@@ -14,6 +14,7 @@ from mitsar.errors import ParameterError
 from mitsar.focus.aperture import MAX_AZIMUTH_RESOLUTION, aperture_half_width
 from mitsar.focus.autofocus import PulseSettings, make_options, run_autofocus
 from mitsar.focus.bpa import focus_bpa
+from mitsar.focus.channels import focus_channels
 from mitsar.focus.ffbp import focus_ffbp
 from mitsar.focus.frequency_domain import focus_frequency_domain
 from mitsar.focus.grid import Grid, SlantGrid, from_dict
@@ -131,6 +132,14 @@ def focus(raw: xr.Dataset, algorithm: str = "bpa", grid: Grid | dict | None = No
     if not isinstance(grid, Grid):
         raise ParameterError("focus", "grid", "None, a dict (mitsar.grid.from_dict) or a "
                              "SlantGrid, PlaneGrid or PointsGrid", type(grid).__name__)
+    if "channel" in raw["raw"].dims:  # every channel onto channel 0's pixels (focus.channels)
+        return focus_channels(raw, algorithm, grid, lambda view, chosen: focus(
+            view, algorithm, chosen, window=window, range_window=range_window,
+            azimuth_resolution=azimuth_resolution, remove_rvp=remove_rvp,
+            motion_correction=motion_correction, backend=backend,
+            range_upsample=range_upsample, pixel_chunk=pixel_chunk,
+            algorithm_options=algorithm_options, progress=progress,
+            motion_compensation=motion_compensation), autofocus)
 
     radar = radar_of(raw)
     half_width = aperture_half_width(radar, azimuth_resolution)

@@ -48,7 +48,8 @@ def check_noise(where: str, radar: Radar, noise: bool, normalized: bool) -> None
                              "watts, normalised echoes are not)", noise)
 
 
-def thermal_noise(radar: Radar, seed: int, sweeps: ArrayLike) -> NDArray[np.complex128]:
+def thermal_noise(radar: Radar, seed: int, sweeps: ArrayLike,
+                  channel: int = 0) -> NDArray[np.complex128]:
     """Receiver noise of the given sweeps: circular Gaussian samples of power ``k T0 F f_s`` each.
 
     Real and imaginary parts are independent with variance ``P_n / 2`` each, so that
@@ -69,6 +70,9 @@ def thermal_noise(radar: Radar, seed: int, sweeps: ArrayLike) -> NDArray[np.comp
         The run's seed (0 ... 2**63 - 1).
     sweeps : array_like of int, shape (S,)
         Sweep indices of the acquisition.
+    channel : int
+        Receive channel (>= 0): each channel's receiver has its own independent noise, a
+        stream keyed by ``(seed, channel)``; channel 0 is the single-channel radar's stream.
 
     Returns
     -------
@@ -78,7 +82,8 @@ def thermal_noise(radar: Radar, seed: int, sweeps: ArrayLike) -> NDArray[np.comp
     samples = radar.samples_per_sweep
     # two uniforms per complex sample; every sweep starts on a counter value of its own
     stride = -(-2 * samples // _WORDS_PER_COUNTER)
-    key = np.random.SeedSequence([int(seed), NOISE_STREAM]).generate_state(2, np.uint64)
+    entropy = [int(seed), NOISE_STREAM] + ([int(channel)] if channel else [])
+    key = np.random.SeedSequence(entropy).generate_state(2, np.uint64)
     words = np.empty((len(sweeps), stride * _WORDS_PER_COUNTER), dtype=np.uint64)
     breaks = np.flatnonzero(np.diff(sweeps) != 1) + 1
     for run, first in zip(np.split(np.arange(len(sweeps)), breaks),  # contiguous runs (few)

@@ -11,6 +11,8 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
+
 from mitsar.checks import KnownFields, finite, is_real, positive
 from mitsar.errors import ParameterError
 
@@ -23,6 +25,12 @@ BOLTZMANN = 1.380_649e-23
 REFERENCE_TEMPERATURE = 290.0
 """Reference noise temperature T0 [K] of the noise figure."""
 
+
+MAX_CHANNELS = 64
+"""Most receive channels of one radar."""
+
+MAX_PHASE_CENTRE_OFFSET = 10.0
+"""Largest body-frame offset of a phase centre [m] (an antenna a drone can carry)."""
 
 MAX_SAMPLES_PER_SWEEP = 10**6
 """Largest number of fast-time samples per sweep (16 MB of complex samples)."""
@@ -64,6 +72,18 @@ class Radar(metaclass=KnownFields):
     azimuth_beamwidth_deg, elevation_beamwidth_deg : float or None
         Beamwidths [deg]; by default ``lambda / l_AZ`` and ``lambda / d`` (paper Table 1:
         9 deg and 18 deg).
+    receivers : sequence of 3-vectors or None
+        Receive phase centres in the body frame [m] (x forward, y left, z up at zero
+        attitude; :func:`mitsar.model.geometry.attitude.body_to_world`), one receive channel
+        each; ``None``: one monostatic channel at the origin (the products then have no
+        ``channel`` dimension). docs/interferometry.md.
+    transmitters : sequence of 3-vectors or None
+        Transmit phase centres in the body frame [m]; ``None``: one at the origin. With one
+        transmitter every receiver listens to it (single-pass interferometer); with
+        ``ping_pong`` each receiver's own phase centre transmits.
+    ping_pong : bool
+        Each channel transmits and receives on its own phase centre (the interferometric
+        phase doubles: docs/interferometry.md).
 
     Examples
     --------
@@ -83,8 +103,12 @@ class Radar(metaclass=KnownFields):
     noise_figure_db: float | None = None
     azimuth_beamwidth_deg: float | None = None
     elevation_beamwidth_deg: float | None = None
+    receivers: tuple[tuple[float, float, float], ...] | None = None
+    transmitters: tuple[tuple[float, float, float], ...] | None = None
+    ping_pong: bool = False
 
     def __post_init__(self) -> None:
+        self._check_phase_centres()
         positive_fields = (
             "carrier_frequency", "bandwidth", "sampling_frequency", "prf", "max_range",
             "antenna_width", "antenna_length", "transmit_power",
@@ -122,6 +146,61 @@ class Radar(metaclass=KnownFields):
                 f"limit fs/2 = {self.sampling_frequency / 2:g} Hz (beat frequency at max_range "
                 f"is {self.max_beat_frequency:g} Hz); raise sampling_frequency or lower "
                 "max_range", self.max_range)
+
+    def _check_phase_centres(self) -> None:
+        """Normalise ``receivers``/``transmitters`` to tuples of float 3-tuples, or refuse."""
+        for name in ("receivers", "transmitters"):
+            value = getattr(self, name)
+            if value is None:
+                continue
+            expected = (f"None or a non-empty list of body-frame 3-vectors [m] with |x| <= "
+                        f"{MAX_PHASE_CENTRE_OFFSET:g} m, e.g. [(0, 0, 0), (0, 0, 0.05)]")
+            try:
+                rows = tuple(tuple(float(v) for v in row) for row in value)
+            except (TypeError, ValueError):
+                raise ParameterError("Radar", name, expected, value) from None
+            if not rows or any(len(row) != 3 or not all(math.isfinite(v)
+                                                        and abs(v) <= MAX_PHASE_CENTRE_OFFSET
+                                                        for v in row) for row in rows):
+                raise ParameterError("Radar", name, expected, value)
+            if len(rows) > MAX_CHANNELS:
+                raise ParameterError("Radar", name, f"at most {MAX_CHANNELS} phase centres",
+                                     len(rows))
+            object.__setattr__(self, name, rows)
+        if not isinstance(self.ping_pong, bool):
+            raise ParameterError("Radar", "ping_pong", "true or false", self.ping_pong)
+        if self.ping_pong and self.transmitters is not None:
+            raise ParameterError("Radar", "transmitters", "None with ping_pong (each receiver "
+                                 "transmits on its own phase centre)", self.transmitters)
+        if self.transmitters is not None and len(self.transmitters) > 1:
+            raise ParameterError("Radar", "transmitters", "one transmitter (several in time "
+                                 "slots, TDM-MIMO, are not simulated yet: docs/interferometry.md)",
+                                 self.transmitters)
+
+    # --- channels ---------------------------------------------------------------------------
+    @property
+    def has_channels(self) -> bool:
+        """Whether the radar declares its phase centres (products get a ``channel`` dim)."""
+        return self.receivers is not None or self.transmitters is not None or self.ping_pong
+
+    @property
+    def channel_count(self) -> int:
+        """Number of receive channels."""
+        return 1 if self.receivers is None else len(self.receivers)
+
+    def channel_offsets(self) -> tuple[tuple[tuple[float, float, float], ...],
+                                       tuple[tuple[float, float, float], ...]]:
+        """Body-frame (transmitter, receiver) phase centre of each channel [m].
+
+        Returns
+        -------
+        transmitters, receivers : tuple of 3-tuples, one per channel
+        """
+        receivers = self.receivers or ((0.0, 0.0, 0.0),)
+        if self.ping_pong:
+            return receivers, receivers
+        transmitter = (self.transmitters or ((0.0, 0.0, 0.0),))[0]
+        return tuple(transmitter for _ in receivers), receivers
 
     # --- derived values -------------------------------------------------------------------
     @property
@@ -224,17 +303,35 @@ class Radar(metaclass=KnownFields):
 
     # --- serialisation --------------------------------------------------------------------
     def to_attrs(self) -> dict[str, Any]:
-        """Parameters as a flat dict of ``radar_<name>`` attributes (None dropped)."""
-        return {f"radar_{f.name}": getattr(self, f.name) for f in dataclasses.fields(self)
-                if getattr(self, f.name) is not None}
+        """Parameters as a flat dict of ``radar_<name>`` attributes (None and a false
+        ``ping_pong`` dropped; phase centres as flat lists of 3k floats, ``ping_pong`` as 1)."""
+        attrs: dict[str, Any] = {}
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            if value is None or value is False:
+                continue
+            if f.name in _PHASE_CENTRES:
+                value = [float(v) for row in value for v in row]
+            attrs[f"radar_{f.name}"] = int(value) if value is True else value
+        return attrs
 
     @classmethod
     def from_attrs(cls, attrs: dict[str, Any]) -> Radar:
         """Inverse of :meth:`to_attrs` (extra attributes are ignored)."""
-        kwargs = {}
+        kwargs: dict[str, Any] = {}
         for f in dataclasses.fields(cls):
             key = f"radar_{f.name}"
-            if key in attrs:
+            if key not in attrs:
+                continue
+            if f.name in _PHASE_CENTRES:
+                flat = [float(v) for v in np.ravel(attrs[key])]
+                kwargs[f.name] = tuple(tuple(flat[i:i + 3]) for i in range(0, len(flat), 3))
+            elif f.name == "ping_pong":
+                kwargs[f.name] = bool(int(attrs[key]))
+            else:
                 kwargs[f.name] = float(attrs[key])
         return cls(**kwargs)
+
+
+_PHASE_CENTRES = ("receivers", "transmitters")
 

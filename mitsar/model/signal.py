@@ -47,6 +47,20 @@ def two_way_delay(platform_position: ArrayLike, target_position: ArrayLike) -> N
     return 2.0 * np.linalg.norm(offset, axis=-1) / SPEED_OF_LIGHT
 
 
+def bistatic_delay(transmitter_position: ArrayLike, receiver_position: ArrayLike,
+                   target_position: ArrayLike) -> NDArray:
+    """Delay ``tau = (|t - q| + |q - r|) / c`` of a transmitter at t and a receiver at r [s].
+
+    The exact path of one channel of a multi-channel radar (Rosen et al. 2000 §II;
+    docs/interferometry.md); :func:`two_way_delay` when ``t = r``. Evaluated at the sample
+    instant, as :func:`two_way_delay`.
+    """
+    target = np.asarray(target_position)
+    outgoing = np.linalg.norm(np.asarray(transmitter_position) - target, axis=-1)
+    incoming = np.linalg.norm(np.asarray(receiver_position) - target, axis=-1)
+    return (outgoing + incoming) / SPEED_OF_LIGHT
+
+
 def dechirped_phase_cycles(delay: ArrayLike, fast_time: ArrayLike, radar: Radar,
                            rvp: bool = True) -> NDArray[np.float64]:
     """Phase of the dechirped echo in cycles: ``f_c tau + K tau t - K tau^2 / 2`` (paper eq. 1).

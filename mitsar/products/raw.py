@@ -114,8 +114,9 @@ def make_raw_product(samples: ArrayLike, radar: Radar, look: Look, geometry: Any
 
     Parameters
     ----------
-    samples : array_like, shape (sweeps, samples_per_sweep)
-        Dechirped complex samples [sqrt(W)].
+    samples : array_like, shape (sweeps, samples_per_sweep) or (channels, sweeps, samples)
+        Dechirped complex samples [sqrt(W)]; a leading ``channel`` axis for a radar with
+        phase centres (:attr:`mitsar.model.radar.Radar.has_channels`).
     radar, look : Radar, Look
     geometry : dict
         Output of :func:`mitsar.raw.product.sweep_geometry` (or equivalent arrays): slow time
@@ -133,13 +134,15 @@ def make_raw_product(samples: ArrayLike, radar: Radar, look: Look, geometry: Any
         The raw product (:data:`RAW_SCHEMA`).
     """
     samples = np.asarray(samples)
-    sweeps = samples.shape[0]
+    channels = samples.ndim == 3  # (channel, sweep, sample): a radar with phase centres
+    sweeps = samples.shape[-2]
     slow = TRACK_SCHEMA["slow_time"]
     data = xr.Dataset(
-        {"raw": (("sweep", "sample"), samples), **track_variables(geometry, true_geometry)},
+        {"raw": ((("channel",) if channels else ()) + ("sweep", "sample"), samples),
+         **track_variables(geometry, true_geometry)},
         coords={
             "sweep": np.arange(sweeps),
-            "sample": np.arange(samples.shape[1]),
+            "sample": np.arange(samples.shape[-1]),
             "slow_time": ("sweep", geometry["slow_time"], slow.attrs()),
             "fast_time": ("sample", fast_time(radar), RAW_SCHEMA.variables["fast_time"].attrs()),
             "xyz": ["x", "y", "z"],
@@ -147,9 +150,24 @@ def make_raw_product(samples: ArrayLike, radar: Radar, look: Look, geometry: Any
         },
     )
     data["raw"].attrs.update(RAW_SCHEMA.variables["raw"].attrs())
+    if channels:
+        data = data.assign_coords(channel=np.arange(samples.shape[0]))
+        data.update(channel_variables(radar))
     data.attrs.update(product_attrs("raw", radar, look, rvp))
     data.attrs.update(encode_attrs(attrs or {}))
     return data
+
+
+def channel_variables(radar: Radar) -> dict[str, tuple]:
+    """``transmitter_offset`` and ``receiver_offset`` (channel, xyz): each channel's body-frame
+    phase centres [m] (:meth:`mitsar.model.radar.Radar.channel_offsets`)."""
+    transmitters, receivers = radar.channel_offsets()
+    return {
+        "transmitter_offset": (("channel", "xyz"), np.array(transmitters, dtype=float),
+                               {"units": "m", "long_name": "body-frame transmit phase centre"}),
+        "receiver_offset": (("channel", "xyz"), np.array(receivers, dtype=float),
+                            {"units": "m", "long_name": "body-frame receive phase centre"}),
+    }
 
 
 def product_attrs(product: str, radar: Radar, look: Look, rvp: bool) -> dict[str, Any]:

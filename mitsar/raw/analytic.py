@@ -25,7 +25,7 @@ from mitsar.checks import integer
 from mitsar.checks import seed as check_seed
 from mitsar.errors import ParameterError
 from mitsar.model.geometry.antenna import two_way_pattern
-from mitsar.model.geometry.attitude import Look, antenna_frame
+from mitsar.model.geometry.attitude import Look, antenna_frame, body_to_world
 from mitsar.model.geometry.navigation import (
     NavigationErrors,
     describe_navigation,
@@ -36,6 +36,7 @@ from mitsar.model.noise import check_noise, thermal_noise
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
 from mitsar.model.signal import (
     apparent_beat_frequency,
+    bistatic_delay,
     dechirped_phase_cycles,
     fast_time,
     radar_equation_amplitude,
@@ -170,12 +171,15 @@ def simulate_point_targets(radar: Radar, trajectory: Trajectory, look: Look,
     if not np.any(amplitude):
         raise _all_zero_error()
     sum_echoes = _sum_echoes_drjit if backend == "drjit" else _sum_echoes_numpy
-    samples = sum_echoes(radar, trajectory, plan["geometry"], plan["positions"],
-                         plan["velocities"], amplitude, rvp=rvp, progress=progress,
-                         chunk_elements=chunk_elements)
-    if noise:
-        samples += thermal_noise(radar, seed, np.arange(sweeps))
-    return _product(plan, samples, slice(0, sweeps), first=True)
+    channels = []
+    for channel, offsets in enumerate(_channel_offsets(radar)):
+        samples = sum_echoes(radar, trajectory, plan["geometry"], plan["positions"],
+                             plan["velocities"], amplitude, rvp=rvp, progress=progress,
+                             chunk_elements=chunk_elements, offsets=offsets)
+        if noise:
+            samples += thermal_noise(radar, seed, np.arange(sweeps), channel)
+        channels.append(samples)
+    return _product(plan, _stack(radar, channels), slice(0, sweeps), first=True)
 
 
 def stream_point_targets(radar: Radar, trajectory: Trajectory, look: Look,
@@ -224,14 +228,48 @@ def stream_point_targets(radar: Radar, trajectory: Trajectory, look: Look,
                                      plan["velocities"], plan["reflectivity"](part.stop - start),
                                      normalized=normalized, pattern=pattern)
         any_echo = any_echo or bool(np.any(amplitude))
-        samples = sum_echoes(radar, trajectory, chunk_geometry, plan["positions"],
-                             plan["velocities"], amplitude, rvp=rvp, progress=False,
-                             chunk_elements=STREAM_KERNEL_LANES)
-        if noise:
-            samples += thermal_noise(radar, seed, np.arange(part.start, part.stop))
-        yield _product(plan, samples, part, first=start == 0)
+        channels = []
+        for channel, offsets in enumerate(_channel_offsets(radar)):
+            samples = sum_echoes(radar, trajectory, chunk_geometry, plan["positions"],
+                                 plan["velocities"], amplitude, rvp=rvp, progress=False,
+                                 chunk_elements=STREAM_KERNEL_LANES, offsets=offsets)
+            if noise:
+                samples += thermal_noise(radar, seed, np.arange(part.start, part.stop), channel)
+            channels.append(samples)
+        yield _product(plan, _stack(radar, channels), part, first=start == 0)
     if not any_echo:
         raise _all_zero_error()
+
+
+def _channel_offsets(radar: Radar) -> list[tuple[NDArray, NDArray] | None]:
+    """Body-frame (transmitter, receiver) phase centres [m] of each channel, or ``[None]``
+    for the single monostatic channel of a radar without declared phase centres."""
+    if not radar.has_channels:
+        return [None]
+    transmitters, receivers = radar.channel_offsets()
+    return [(np.asarray(t, dtype=float), np.asarray(r, dtype=float))
+            for t, r in zip(transmitters, receivers, strict=True)]
+
+
+def _stack(radar: Radar, channels: list[NDArray]) -> NDArray:
+    """Samples (sweeps, samples) of a single-channel radar, (channels, sweeps, samples) else."""
+    return np.stack(channels) if radar.has_channels else channels[0]
+
+
+def _phase_centres(trajectory: Trajectory, absolute_time: NDArray,
+                   offsets: tuple[NDArray, NDArray] | None) -> tuple[NDArray, NDArray | None]:
+    """World positions [m] of the transmitter and, for a bistatic channel, the receiver at
+    each sample time: the track's point plus the body-frame offsets rotated by the attitude at
+    that instant (:func:`mitsar.model.geometry.attitude.body_to_world`); ``None`` for the
+    receiver of a monostatic channel (it is the transmitter)."""
+    platform = trajectory.position(absolute_time)
+    if offsets is None:
+        return platform, None
+    rotation = body_to_world(*np.moveaxis(trajectory.attitude_at(absolute_time), -1, 0))
+    transmitter = platform + rotation @ offsets[0]
+    if np.array_equal(offsets[0], offsets[1]):
+        return transmitter, None
+    return transmitter, platform + rotation @ offsets[1]
 
 
 def _all_zero_error() -> ParameterError:
@@ -350,7 +388,8 @@ def _product(plan: dict, samples: NDArray, part: slice, first: bool) -> xr.Datas
         samples, plan["radar"], plan["look"], geometry if recorded is None else recorded,
         rvp=plan["rvp"], true_geometry=None if recorded is None else geometry,
         attrs=plan["attrs"])
-    product = product.assign_coords(sweep=np.arange(part.start, part.start + len(samples)))
+    product = product.assign_coords(sweep=np.arange(part.start,
+                                                    part.start + samples.shape[-2]))
     if not first:
         return product
     targets, background_draw = plan["targets"], plan["background_draw"]
@@ -423,10 +462,13 @@ def _sample_times(radar: Radar, geometry: dict, sweep_slice: slice) -> NDArray:
 
 def _sum_echoes_numpy(radar: Radar, trajectory: Trajectory, geometry: dict, positions: NDArray,
                       velocities: NDArray, amplitude: NDArray, *, rvp: bool, progress: bool,
-                      chunk_elements: int) -> NDArray[np.complex128]:
+                      chunk_elements: int, offsets: tuple[NDArray, NDArray] | None = None
+                      ) -> NDArray[np.complex128]:
     """Reference sum of the dechirped echoes, vectorised over (sweep, sample, scatterer).
 
-    The Python loop runs over memory chunks only.
+    ``offsets``: body-frame (transmitter, receiver) phase centres of a channel [m]
+    (:func:`_phase_centres`; exact bistatic delay, :func:`mitsar.model.signal.bistatic_delay`);
+    ``None``: the monostatic antenna at the track. The Python loop runs over memory chunks only.
     """
     sweeps = len(geometry["slow_time"])
     times = fast_time(radar)
@@ -440,10 +482,11 @@ def _sum_echoes_numpy(radar: Radar, trajectory: Trajectory, geometry: dict, posi
         sweep_slice = slice(sweep0, sweep0 + sweeps_per_chunk)
         scatterer_slice = slice(scatterer0, scatterer0 + scatterers_per_chunk)
         absolute_time = _sample_times(radar, geometry, sweep_slice)
-        platform = trajectory.position(absolute_time)
+        platform, receiver = _phase_centres(trajectory, absolute_time, offsets)
         target = (positions[None, None, scatterer_slice, :]
                   + velocities[None, None, scatterer_slice, :] * absolute_time[..., None, None])
-        delay = two_way_delay(platform[:, :, None, :], target)
+        delay = (two_way_delay(platform[:, :, None, :], target) if receiver is None
+                 else bistatic_delay(platform[:, :, None, :], receiver[:, :, None, :], target))
         cycles = dechirped_phase_cycles(delay, times[None, :, None], radar, rvp=rvp)
         phasor = np.exp(2j * np.pi * (cycles - np.round(cycles)))
         samples[sweep_slice] += np.einsum("snm,sm->sn", phasor,
@@ -453,11 +496,12 @@ def _sum_echoes_numpy(radar: Radar, trajectory: Trajectory, geometry: dict, posi
 
 def _sum_echoes_drjit(radar: Radar, trajectory: Trajectory, geometry: dict, positions: NDArray,
                       velocities: NDArray, amplitude: NDArray, *, rvp: bool, progress: bool,
-                      chunk_elements: int) -> NDArray[np.complex128]:
+                      chunk_elements: int, offsets: tuple[NDArray, NDArray] | None = None
+                      ) -> NDArray[np.complex128]:
     """Sum of the dechirped echoes as a Dr.Jit kernel: one lane per sample, loop over scatterers.
 
-    Same formulas as :func:`_sum_echoes_numpy` (``mitsar.model.signal``); geometry and phase in
-    float64, sin/cos of the wrapped phase in float32.
+    Same formulas as :func:`_sum_echoes_numpy` (``mitsar.model.signal``; ``offsets`` as there);
+    geometry and phase in float64, sin/cos of the wrapped phase in float32.
     """
     require_llvm()
     sweeps = len(geometry["slow_time"])
@@ -474,32 +518,47 @@ def _sum_echoes_drjit(radar: Radar, trajectory: Trajectory, geometry: dict, posi
                        desc="simulate", unit="chunk"):
         sweep_slice = slice(sweep0, sweep0 + sweeps_per_chunk)
         absolute_time = _sample_times(radar, geometry, sweep_slice)
-        platform = trajectory.position(absolute_time).reshape(-1, 3)
+        platform, receiver = _phase_centres(trajectory, absolute_time, offsets)
+        platform = platform.reshape(-1, 3)
         chunk_amplitude = np.ascontiguousarray(amplitude[sweep_slice])
         lanes = (Float64(platform[:, 0]), Float64(platform[:, 1]), Float64(platform[:, 2]),
                  Float64(absolute_time.ravel()), Float64(np.tile(times, len(chunk_amplitude))))
+        receiver_lanes = (None if receiver is None
+                          else tuple(Float64(a) for a in receiver.reshape(-1, 3).T))
         real, imag = _echo_loop(*lanes, *scatterer_arrays, Float64(chunk_amplitude.real.ravel()),
-                                Float64(chunk_amplitude.imag.ravel()), *constants)
+                                Float64(chunk_amplitude.imag.ravel()), *constants,
+                                receiver_lanes)
         dr.eval(real, imag)
         samples[sweep_slice] = (np.asarray(real) + 1j * np.asarray(imag)).reshape(-1, sample_count)
     return samples
 
 
+def _lane_delay(dx: Float64, dy: Float64, dz: Float64, qx: Float64, qy: Float64, qz: Float64,
+                receiver: tuple | None) -> Float64:
+    """Delay [s] of a lane from its offset to the transmitter (d = p - q): ``2 |d| / c``, or
+    ``(|d| + |r - q|) / c`` with a bistatic receiver at r (:func:`bistatic_delay`)."""
+    outgoing = dr.sqrt(dx * dx + dy * dy + dz * dz)
+    if receiver is None:
+        return (2.0 / SPEED_OF_LIGHT) * outgoing
+    ex, ey, ez = receiver[0] - qx, receiver[1] - qy, receiver[2] - qz
+    return (outgoing + dr.sqrt(ex * ex + ey * ey + ez * ez)) / SPEED_OF_LIGHT
+
+
 @dr.syntax
 def _echo_loop(px, py, pz, absolute_time, fast, qx, qy, qz, vx, vy, vz, amp_real,  # noqa: ANN001, ANN202
-               amp_imag, carrier, chirp_rate, rvp, scatterers, sample_count):
-    """Per sample lane: sum over scatterers of a exp{j 2 pi [f_c tau + K tau t - rvp K tau^2/2]}."""
-    two_over_c = 2.0 / SPEED_OF_LIGHT
+               amp_imag, carrier, chirp_rate, rvp, scatterers, sample_count, receiver=None):
+    """Per sample lane: sum over scatterers of a exp{j 2 pi [f_c tau + K tau t - rvp K tau^2/2]}
+    (``receiver``: the lanes' bistatic receiver positions, or None: monostatic)."""
     lane = dr.arange(UInt32, dr.width(px))
     sweep = lane // sample_count
     acc_real = dr.zeros(Float64, dr.width(px))
     acc_imag = dr.zeros(Float64, dr.width(px))
     m = UInt32(0)
     while m < scatterers:
-        dx = px - (dr.gather(Float64, qx, m) + dr.gather(Float64, vx, m) * absolute_time)
-        dy = py - (dr.gather(Float64, qy, m) + dr.gather(Float64, vy, m) * absolute_time)
-        dz = pz - (dr.gather(Float64, qz, m) + dr.gather(Float64, vz, m) * absolute_time)
-        delay = two_over_c * dr.sqrt(dx * dx + dy * dy + dz * dz)
+        tx = dr.gather(Float64, qx, m) + dr.gather(Float64, vx, m) * absolute_time
+        ty = dr.gather(Float64, qy, m) + dr.gather(Float64, vy, m) * absolute_time
+        tz = dr.gather(Float64, qz, m) + dr.gather(Float64, vz, m) * absolute_time
+        delay = _lane_delay(px - tx, py - ty, pz - tz, tx, ty, tz, receiver)
         cycles = (carrier * delay + chirp_rate * delay * fast
                   - rvp * 0.5 * chirp_rate * delay * delay)
         # Wrapped to one cycle in float64, then sin/cos in float32 (error < 1e-6 rad).

@@ -1,0 +1,133 @@
+"""Receive channels (issue 22): phase centres on the radar, the exact bistatic delay of each
+channel in the analytic simulator, and back-projection of every channel onto one grid.
+
+Closed forms: the dechirped carrier phase of a channel is 2 pi f_c (|t - q| + |q - r|) / c
+(Rosen et al. 2000 §II; docs/interferometry.md), so between two receivers of one transmitter
+the phase difference is 2 pi (R_1 - R_2) / lambda (single pass) and twice that when each
+channel transmits on its own phase centre (ping-pong).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import mitsar
+from mitsar.errors import ParameterError
+from mitsar.model.radar import SPEED_OF_LIGHT
+from mitsar.model.signal import fast_time
+
+TRACK = mitsar.Trajectory.linear([14.8, 1.4, 4.5], [0.5, 0.0, 0.0], 0.8)
+LOOK = mitsar.Look(55.7)
+TARGET = np.array([15.0, 8.0, 0.3])
+BASELINE = 0.05  # vertical, m (docs/interferometry.md)
+
+
+def _raw(radar, **kwargs):
+    return mitsar.simulate_point_targets(radar, TRACK, LOOK, [mitsar.PointTarget(TARGET)],
+                                         normalized=True, **kwargs)
+
+
+def _wrap(phase):
+    return np.angle(np.exp(1j * phase))
+
+
+def _sample_phase_difference(raw, radar, sweep=100):
+    """Phase of channel 0 times conj(channel 1) at the centre sample of a sweep, and the
+    closed form 2 pi f_c (tau_0 - tau_1) there (the K tau t - K tau^2/2 terms of the two
+    channels differ by < 1e-4 rad at the centre of the sweep)."""
+    centre = radar.samples_per_sweep // 2
+    time = (raw["slow_time"].values[sweep] + radar.sweep_duration / 2
+            + fast_time(radar)[centre])
+    antenna = TRACK.position(time)
+    transmitters, receivers = radar.channel_offsets()
+    delay = [(np.linalg.norm(antenna + np.asarray(t) - TARGET)
+              + np.linalg.norm(antenna + np.asarray(r) - TARGET)) / SPEED_OF_LIGHT
+             for t, r in zip(transmitters, receivers, strict=True)]
+    s0, s1 = raw["raw"].values[:, sweep, centre]
+    expected = 2 * np.pi * radar.carrier_frequency * (delay[0] - delay[1])
+    return np.angle(s0 * np.conj(s1)), _wrap(expected), delay
+
+
+def test_radar_phase_centres_are_validated_and_round_trip():
+    radar = mitsar.Radar(receivers=[(0, 0, 0), (0, 0, BASELINE)])
+    assert radar.channel_count == 2 and radar.has_channels
+    assert mitsar.Radar.from_attrs(radar.to_attrs()) == radar
+    assert not mitsar.Radar().has_channels
+    assert "radar_receivers" not in mitsar.Radar().to_attrs()  # single-channel products as before
+    for bad in ([(0, 0)], [], [(0, 0, float("nan"))], "0 0 0"):
+        with pytest.raises(ParameterError, match="receivers"):
+            mitsar.Radar(receivers=bad)
+    with pytest.raises(ParameterError, match="transmitters"):
+        mitsar.Radar(receivers=[(0, 0, 0)], transmitters=[(0, 0, 0)], ping_pong=True)
+
+
+def test_single_pass_phase_difference_is_the_range_difference():
+    """Two receivers, one transmitter: the raw data's channel phase difference is
+    2 pi (R_1 - R_2) / lambda within 1 mrad (measured ~1e-5 rad)."""
+    radar = mitsar.Radar(receivers=[(0, 0, 0), (0, 0, BASELINE)])
+    raw = _raw(radar)
+    assert raw["raw"].dims == ("channel", "sweep", "sample")
+    measured, expected, _ = _sample_phase_difference(raw, radar)
+    assert abs(_wrap(measured - expected)) < 1e-3
+
+
+def test_ping_pong_doubles_the_phase():
+    single = mitsar.Radar(receivers=[(0, 0, 0), (0, 0, BASELINE)])
+    ping_pong = mitsar.Radar(receivers=[(0, 0, 0), (0, 0, BASELINE)], ping_pong=True)
+    _, _, single_delay = _sample_phase_difference(_raw(single), single)
+    measured, expected, pong_delay = _sample_phase_difference(_raw(ping_pong), ping_pong)
+    assert abs(_wrap(measured - expected)) < 1e-3
+    # the path difference doubles (closed form), to rounding
+    assert (pong_delay[0] - pong_delay[1]) == pytest.approx(
+        2 * (single_delay[0] - single_delay[1]), rel=1e-6)
+
+
+def test_channel_zero_at_the_origin_is_the_monostatic_radar_and_backends_agree():
+    radar = mitsar.Radar(receivers=[(0, 0, 0), (0, 0, BASELINE)])
+    raw = _raw(radar)
+    mono = _raw(mitsar.Radar())
+    assert np.array_equal(raw["raw"].values[0], mono["raw"].values)
+    reference = _raw(radar, backend="numpy")["raw"].values
+    # float32 sin/cos in the kernel (docs/design.md): 1e-6 of the peak
+    assert np.abs(raw["raw"].values - reference).max() < 1e-6 * np.abs(reference).max()
+
+
+def test_channel_noise_is_independent():
+    radar = mitsar.Radar(receivers=[(0, 0, 0), (0, 0, BASELINE)], noise_figure_db=8.0)
+    track = mitsar.Trajectory.linear([14.8, 1.4, 4.5], [0.5, 0.0, 0.0], 0.4)
+    target = mitsar.PointTarget(TARGET, rcs=1e-12)
+    raw = mitsar.simulate_point_targets(radar, track, LOOK, [target], noise=True, seed=4)
+    n0, n1 = (raw["raw"].values[k].ravel() for k in range(2))
+    correlation = abs(np.vdot(n0, n1)) / np.sqrt(np.vdot(n0, n0).real * np.vdot(n1, n1).real)
+    assert correlation < 5 / np.sqrt(n0.size)  # independent: ~1/sqrt(N)
+    # and channel 0 keeps the single-channel radar's noise stream
+    single = mitsar.simulate_point_targets(
+        mitsar.Radar(noise_figure_db=8.0), track, LOOK, [target], noise=True, seed=4)
+    assert np.allclose(n0, single["raw"].values.ravel(), rtol=0, atol=1e-12 * np.abs(n0).max())
+
+
+@pytest.mark.parametrize("backend", ["drjit", "numpy"])
+def test_channels_focus_onto_one_grid_with_the_reference_phase_removed(backend):
+    """Each channel back-projected on its exact bistatic path: a scatterer exactly at a pixel
+    has the same phase in both channel images (flat interferometric phase < 1 mrad)."""
+    radar = mitsar.Radar(receivers=[(0, 0, 0), (0, 0, BASELINE)])
+    image = mitsar.focus(_raw(radar), "bpa", mitsar.grid.PointsGrid(TARGET[None]),
+                         azimuth_resolution=0.1, backend=backend)
+    assert image["image"].dims[0] == "channel" and image.sizes["channel"] == 2
+    s0, s1 = image["image"].values[:, 0, 0]
+    assert abs(np.angle(s0 * np.conj(s1))) < 1e-3
+    # amplitudes: linear interpolation of the 16x upsampled profile loses up to ~0.2 % at a
+    # fractional bin, and the two channels' paths fall on different fractions
+    assert abs(abs(s0) / abs(s1) - 1) < 5e-3
+    assert image["receiver_offset"].values[1, 2] == BASELINE
+    assert image.sizes["aperture"] == TRACK.duration * radar.prf
+
+
+def test_multi_channel_focusing_refuses_what_it_cannot_do_exactly():
+    raw = _raw(mitsar.Radar(receivers=[(0, 0, 0), (0, 0, BASELINE)]))
+    for algorithm in ("ffbp", "rda"):
+        with pytest.raises(ParameterError, match="multi-channel"):
+            mitsar.focus(raw, algorithm)
+    with pytest.raises(ParameterError, match="autofocus"):
+        mitsar.focus(raw, "bpa", autofocus="pga")
