@@ -129,9 +129,10 @@ def experiment_from_dict(data: Mapping[str, Any], source: str | os.PathLike | No
 
 
 def _radar_config(radar: Radar) -> dict[str, Any]:
-    """The radar's effective parameters (None dropped) for the config record."""
+    """The radar's effective parameters (None and a false ``ping_pong`` dropped) for the
+    config record."""
     return {f.name: getattr(radar, f.name) for f in dataclasses.fields(radar)
-            if getattr(radar, f.name) is not None}
+            if getattr(radar, f.name) is not None and getattr(radar, f.name) is not False}
 
 
 def load_experiment(path: str | os.PathLike, overrides: Sequence[str] = ()) -> Experiment:

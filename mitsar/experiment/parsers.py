@@ -59,10 +59,16 @@ __all__ = [
 
 
 def parse_radar(t: Table) -> Radar:
-    """``[radar]``: every :class:`~mitsar.model.radar.Radar` field, defaults from Table 1."""
+    """``[radar]``: every :class:`~mitsar.model.radar.Radar` field, defaults from Table 1;
+    ``receivers`` / ``transmitters`` as arrays of body-frame 3-vectors [m] and ``ping_pong``
+    for a multi-channel (interferometric) radar."""
     kwargs: dict[str, Any] = {}
     for f in dataclasses.fields(Radar):
-        if f.name.endswith("_db"):
+        if f.name in ("receivers", "transmitters"):  # phase centres (docs/interferometry.md)
+            value = t.vectors(f.name, 3, default=None, unit="m, body frame")
+        elif f.name == "ping_pong":
+            value = t.boolean(f.name, False) or None
+        elif f.name.endswith("_db"):
             value = t.number(f.name, f.default, unit="dB")
         elif f.name.endswith("_deg"):
             value = t.number(f.name, f.default, unit="deg", gt=0, lt=180)

@@ -208,6 +208,7 @@ def measure_impulse_response(
     search_radius_m: float | None = None,
     cut_axes: str = "response",
     neighbour_db: float = NEIGHBOUR_DB,
+    channel: int = 0,
 ) -> dict[str, Any]:
     """Point-target impulse-response metrics of a focused image (paper Tables 4–5).
 
@@ -247,6 +248,9 @@ def measure_impulse_response(
     neighbour_db : float, default -20
         Report other scatterers at least this strong relative to the peak (dB) inside the
         measurement window (:data:`NEIGHBOUR_DB`).
+    channel : int, default 0
+        The receive channel measured in a multi-channel image (``channel`` dim; recorded as
+        ``channel`` in the result); ignored for a single-channel image.
 
     Returns
     -------
@@ -284,6 +288,17 @@ def measure_impulse_response(
     ``point_target_info``; 2-D ISLR main lobe as in FastSAR ``quality.point_target``.
     Conventions and measured numbers: docs/metrics.md.
     """
+    if "image" in image.variables and "channel" in image["image"].dims:
+        count = image.sizes["channel"]
+        checks.integer("measure_impulse_response", "channel", channel, 0,
+                       f"a channel index in [0, {count})")
+        if channel >= count:
+            raise ParameterError("measure_impulse_response", "channel",
+                                 f"a channel index in [0, {count})", channel)
+        return {**measure_impulse_response(
+            image.isel(channel=channel), target, islr_extent=islr_extent, upsample=upsample,
+            chip_cells=chip_cells, search_radius_m=search_radius_m, cut_axes=cut_axes,
+            neighbour_db=neighbour_db), "channel": int(channel)}
     extent = parse_extent(islr_extent)
     factor = check_factor(upsample)
     if search_radius_m is not None:
