@@ -97,12 +97,12 @@ def test_chunk_steps_detect_uniform_motion():
                            (_curved(), False)):
         count = int(track.duration * RADAR.prf)
         geometry = sweep_geometry(RADAR, track, LOOK, count)
-        frames = antenna_frame(LOOK, *geometry["attitude"].T)
+        frames = antenna_frame(LOOK, *geometry.attitude.T)
         chosen = np.arange(64) + (0 if uniform else TURNING.start)
         arrays, found, _ = chunk_step_arrays(geometry, frames, chosen)
         assert found == uniform
         if uniform:  # 0.5 m/s at PRF 250 Hz
-            np.testing.assert_allclose(np.asarray(arrays["stepx"])[0], 0.5 / RADAR.prf,
+            np.testing.assert_allclose(np.asarray(arrays[0])[0], 0.5 / RADAR.prf,
                                        rtol=1e-6)
 
 
@@ -413,11 +413,16 @@ def test_packet_window_covers_every_reachable_bin():
     at the middle sweep widened by the antenna's excursion, the Doppler shift of the apparent
     range and two bins of slack, clipped to the grid; the paper's room (above) reaches ~30 %
     of its grid, and its block-kernel data equal the lane kernels' (other tests)."""
-    k = {"bins": 3000, "inv_step": 160.0, "first_range": 1.0, "doppler_bins": 3.0}
+    register_plugins()  # a Mitsuba variant for the packed constants
+    from mitsar.plugins.integrators.radar.constants import BACKSCATTER_FLOATS, UINTS, Constants
+
+    grid = {"bins": 3000, "inv_step": 160.0, "first_range": 1.0, "doppler_bins": 3.0}
+    values = dict.fromkeys(BACKSCATTER_FLOATS, 0.0) | dict.fromkeys(UINTS, 0) | grid
+    k = Constants(values, BACKSCATTER_FLOATS)
     lo, width = blocks_module.packet_window(5.0, 9.0, 0.128, k)
     # ranges 4.872 .. 9.128 m -> lower bins 619.5 .. 1300.5, +-3 Doppler, slack
     assert lo <= math.floor((4.872 - 1.0) * 160.0 - 3.0) - 2
     assert lo + width >= math.ceil((9.128 - 1.0) * 160.0 + 3.0) + 2
-    assert width < 0.25 * k["bins"]
+    assert width < 0.25 * grid["bins"]
     assert blocks_module.packet_window(0.0, 100.0, 0.1, k) == (0, 2999)  # clipped
     assert blocks_module.packet_window(float("inf"), 0.0, 0.1, k) == (0, 1)  # no candidate

@@ -96,13 +96,13 @@ def test_histogram_synthesis_matches_the_exact_per_sample_signal(scatterer_case,
     look, trajectory, position, velocity, rcs, exact = scatterer_case
     sweeps = exact.shape[0]
     geometry = sweep_geometry(RADAR, trajectory, look, sweeps)
-    centre = geometry["slow_time"] + RADAR.sweep_duration / 2
+    centre = geometry.slow_time + RADAR.sweep_duration / 2
     offset = position[None] + velocity[None] * centre[:, None, None] \
-        - geometry["position"][:, None]
+        - geometry.position[:, None]
     slant = np.linalg.norm(offset, axis=-1)
-    rate = np.einsum("smi,smi->sm", offset, velocity[None] - geometry["velocity"][:, None]) \
+    rate = np.einsum("smi,smi->sm", offset, velocity[None] - geometry.velocity[:, None]) \
         / slant
-    frames = antenna_frame(look, *geometry["attitude"].T)
+    frames = antenna_frame(look, *geometry.attitude.T)
     amplitude = np.sqrt(rcs * two_way_pattern(offset / slant[..., None], frames[:, None],
                                               RADAR.azimuth_beamwidth,
                                               RADAR.elevation_beamwidth)) \

@@ -239,7 +239,7 @@ def test_rotating_plate_flashes_when_its_normal_crosses_the_line_of_sight():
     look, speed, flash = mitsar.Look(50.0), 0.05, 0.098
     start = np.array([-speed * flash, 0.0, 3.0])       # abeam of the plate at the flash
     track = mitsar.Trajectory.linear(start, [speed, 0.0, 0.0], 0.2)    # 50 sweeps
-    boresight = sweep_geometry(RADAR, track, look, 1)["boresight"][0]
+    boresight = sweep_geometry(RADAR, track, look, 1).boresight[0]
     side, distance, rate = 0.05, 5.0, 20.0              # far field from 3.1 m (2 D^2/lambda)
     tilt = rate * flash
     centre = np.array([0.0, 0.0, 3.0]) + distance * boresight

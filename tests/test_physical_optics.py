@@ -213,7 +213,7 @@ def test_traced_plate_matches_the_radar_equation():
 
     radar, look = mitsar.Radar(), mitsar.Look(50.0)
     track = mitsar.Trajectory.linear([0.0, 0.0, 3.0], [0.2, 0.0, 0.0], 0.02)   # 5 sweeps
-    boresight = sweep_geometry(radar, track, look, 1)["boresight"][0]
+    boresight = sweep_geometry(radar, track, look, 1).boresight[0]
     side, distance = 0.05, 5.0          # 2D²/λ = 3.1 m (D the diagonal): far field
     centre = np.array([0.0, 0.0, 3.0]) + distance * boresight
     scene = _plate_scene(mi, centre, -boresight, side)

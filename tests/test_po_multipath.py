@@ -121,7 +121,7 @@ def _setup(duration=0.02):
 
     radar, look = mitsar.Radar(), mitsar.Look(50.0)
     track = mitsar.Trajectory.linear([0.0, 0.0, 3.0], [0.2, 0.0, 0.0], duration)
-    boresight = sweep_geometry(radar, track, look, 1)["boresight"][0]
+    boresight = sweep_geometry(radar, track, look, 1).boresight[0]
     return mitsar, mi, radar, look, track, boresight
 
 

@@ -46,6 +46,7 @@ from mitsar.export.phase_history import (
 )
 from mitsar.io import ProductFileError, atomic_writer
 from mitsar.model.geometry.attitude import Look
+from mitsar.model.geometry.sweeps import SweepGeometry
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
 from mitsar.model.signal import fast_time
 from mitsar.products.raw import make_raw_product, radar_of
@@ -355,13 +356,13 @@ def read_cphd(path: str | os.PathLike, *, origin: LabOrigin | None = None,
                              "does not record mitsar's export (not written by "
                              "mitsar.write_cphd)", f"'dechirped' (missing {missing})")
     if form == "dechirped" or (form == "auto" and not missing):
-        geometry = {"slow_time": np.asarray(pvps["TxTime"], float) - float(pvps["TxTime"][0])
-                    + float(parameters["mitsar.slow_time_start"]),
-                    "position": position, "velocity": velocity,
-                    "boresight": origin.vectors_from_ecf(np.asarray(pvps["mitsar_boresight"],
-                                                                    float)),
-                    "attitude": np.column_stack([np.asarray(pvps["mitsar_attitude"][part], float)
-                                                 for part in ("H", "P", "R")])}
+        geometry = SweepGeometry(
+            slow_time=np.asarray(pvps["TxTime"], float) - float(pvps["TxTime"][0])
+            + float(parameters["mitsar.slow_time_start"]),
+            position=position, velocity=velocity,
+            boresight=origin.vectors_from_ecf(np.asarray(pvps["mitsar_boresight"], float)),
+            attitude=np.column_stack([np.asarray(pvps["mitsar_attitude"][part], float)
+                                      for part in ("H", "P", "R")]))
         return _dechirped_product(path, signal, frequencies, sign, parameters, geometry,
                                   lab_srp[0], provenance)  # SRPFixed: one SRP
     try:
@@ -375,7 +376,7 @@ def read_cphd(path: str | os.PathLike, *, origin: LabOrigin | None = None,
 
 
 def _dechirped_product(path: Path, signal: NDArray, frequencies: NDArray, sign: int,
-                       parameters: dict, geometry: dict, srp: NDArray,
+                       parameters: dict, geometry: SweepGeometry, srp: NDArray,
                        provenance: dict) -> xr.Dataset:
     """The dechirped raw product a mitsar CPHD was written from (``read_cphd(form=...)``)."""
     attrs = json.loads(parameters["mitsar.raw_attrs"])
@@ -386,7 +387,7 @@ def _dechirped_product(path: Path, signal: NDArray, frequencies: NDArray, sign: 
                                f"{rf[0]:.9g} Hz, the vectors {len(frequencies)} from "
                                f"{frequencies[0]:.9g} Hz; read it with form='referenced'")
     samples = dechirped_samples(
-        signal, radar, geometry["position"], geometry["velocity"], srp,
+        signal, radar, geometry.position, geometry.velocity, srp,
         parameters["mitsar.motion"], float(parameters["mitsar.motion_azimuth_centre_hz"]),
         parameters["mitsar.rvp_removed"] == "1", sign)
     look = Look(float(attrs.get("look_off_nadir_deg", 0.0)),

@@ -87,7 +87,7 @@ def make_histogram_product(histogram: NDArray, radar: Radar, look: Look, sweeps:
         Absolute sweep indices.
     apparent_range : ndarray, shape (bins,)
         Apparent range of each bin [m].
-    geometry, true_geometry : dict
+    geometry, true_geometry : SweepGeometry
         Recorded (and true) track of the sweeps (:func:`mitsar.raw.product.sweep_geometry`
         arrays: slow time [s], positions [m], ...).
     rvp, normalized : bool
@@ -114,7 +114,7 @@ def make_histogram_product(histogram: NDArray, radar: Radar, look: Look, sweeps:
             "order": np.arange(histogram.shape[1]),
             "bin": np.arange(histogram.shape[2]),
             "apparent_range": ("bin", apparent_range, variables["apparent_range"].attrs()),
-            "slow_time": ("sweep", geometry["slow_time"], variables["slow_time"].attrs()),
+            "slow_time": ("sweep", geometry.slow_time, variables["slow_time"].attrs()),
             "xyz": ["x", "y", "z"],
             "angle": ["heading", "pitch", "roll"],
         },

@@ -33,6 +33,7 @@ import xarray as xr
 from numpy.typing import ArrayLike
 
 from mitsar.model.geometry.attitude import Look
+from mitsar.model.geometry.sweeps import SweepGeometry
 from mitsar.model.radar import Radar
 from mitsar.model.signal import fast_time
 from mitsar.products.requests import REQUEST_ATTRS
@@ -48,8 +49,8 @@ TRACK_VARIABLES = (
     ("boresight", "boresight", "xyz", "1"),
     ("attitude", "attitude", "angle", "rad"),
 )
-"""Per-sweep track variables: (name, :func:`mitsar.raw.product.sweep_geometry` key, second
-dim, units); the true track's carry the prefix ``true_``."""
+"""Per-sweep track variables: (name, :class:`~mitsar.model.geometry.sweeps.SweepGeometry`
+field, second dim, units); the true track's carry the prefix ``true_``."""
 
 _TRACK_LONG_NAMES = {
     "platform_position": "antenna phase centre at mid-sweep",
@@ -118,14 +119,15 @@ def make_raw_product(samples: ArrayLike, radar: Radar, look: Look, geometry: Any
         Dechirped complex samples [sqrt(W)]; a leading ``channel`` axis for a radar with
         phase centres (:attr:`mitsar.model.radar.Radar.has_channels`).
     radar, look : Radar, Look
-    geometry : dict
-        Output of :func:`mitsar.raw.product.sweep_geometry` (or equivalent arrays): slow time
-        [s], positions [m], velocities [m/s], attitude [rad], boresights.
+    geometry : SweepGeometry
+        Output of :func:`mitsar.raw.product.sweep_geometry` (or the track of a product,
+        :func:`track_geometry`): slow time [s], positions [m], velocities [m/s], attitude
+        [rad], boresights.
     rvp : bool
         Whether the samples still hold the residual video phase.
     attrs : dict, optional
         Extra attributes (provenance: seed, config, ...; dicts and lists as JSON).
-    true_geometry : dict, optional
+    true_geometry : SweepGeometry, optional
         The true track's geometry when ``geometry`` is a navigation track.
 
     Returns
@@ -143,7 +145,7 @@ def make_raw_product(samples: ArrayLike, radar: Radar, look: Look, geometry: Any
         coords={
             "sweep": np.arange(sweeps),
             "sample": np.arange(samples.shape[-1]),
-            "slow_time": ("sweep", geometry["slow_time"], slow.attrs()),
+            "slow_time": ("sweep", geometry.slow_time, slow.attrs()),
             "fast_time": ("sample", fast_time(radar), RAW_SCHEMA.variables["fast_time"].attrs()),
             "xyz": ["x", "y", "z"],
             "angle": ["heading", "pitch", "roll"],
@@ -180,23 +182,23 @@ def track_variables(geometry: Any, true_geometry: Any = None) -> dict[str, tuple
     """The per-sweep track variables of a product (raw or histogram) from
     :func:`mitsar.raw.product.sweep_geometry` outputs: the recorded track, and the true one when
     they differ."""
-    out = {name: (("sweep", dims), geometry[key], {"units": units})
+    out = {name: (("sweep", dims), getattr(geometry, key), {"units": units})
            for name, key, dims, units in TRACK_VARIABLES}
     if true_geometry is not None:
-        out.update({f"true_{name}": (("sweep", dims), true_geometry[key],
+        out.update({f"true_{name}": (("sweep", dims), getattr(true_geometry, key),
                                      {"units": units, "long_name": "ground truth (true track)"})
                     for name, key, dims, units in TRACK_VARIABLES})
     return out
 
 
-def track_geometry(product: xr.Dataset, prefix: str = "") -> dict[str, np.ndarray] | None:
+def track_geometry(product: xr.Dataset, prefix: str = "") -> SweepGeometry | None:
     """The :func:`mitsar.raw.product.sweep_geometry` arrays stored in a product
     (``prefix="true_"``: the true track, None when the product has none)."""
     if f"{prefix}platform_position" not in product.variables:
         return None
-    out = {key: product[f"{prefix}{name}"].values for name, key, _, _ in TRACK_VARIABLES}
-    out["slow_time"] = product["slow_time"].values
-    return out
+    return SweepGeometry(slow_time=product["slow_time"].values,
+                         **{key: product[f"{prefix}{name}"].values
+                            for name, key, _, _ in TRACK_VARIABLES})
 
 
 def radar_of(product: xr.Dataset) -> Radar:

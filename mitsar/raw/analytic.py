@@ -31,6 +31,7 @@ from mitsar.model.geometry.navigation import (
     describe_navigation,
     resolve_navigation,
 )
+from mitsar.model.geometry.sweeps import SweepGeometry
 from mitsar.model.geometry.trajectory import Trajectory
 from mitsar.model.noise import check_noise, thermal_noise
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
@@ -223,7 +224,7 @@ def stream_point_targets(radar: Radar, trajectory: Trajectory, look: Look,
     for start in tqdm(range(0, sweeps, sweeps_per_chunk), disable=not progress,
                       desc="simulate", unit="chunk"):
         part = slice(start, min(start + sweeps_per_chunk, sweeps))
-        chunk_geometry = {key: value[part] for key, value in geometry.items()}
+        chunk_geometry = geometry.select(part)
         amplitude = _echo_amplitudes(radar, look, chunk_geometry, plan["positions"],
                                      plan["velocities"], plan["reflectivity"](part.stop - start),
                                      normalized=normalized, pattern=pattern)
@@ -322,7 +323,7 @@ def _plan(radar: Radar, trajectory: Trajectory, look: Look, targets: Sequence[Po
     extra_attrs: dict = {}
     background_draw = None
     if background is not None:
-        mid = geometry["position"][sweeps // 2]
+        mid = geometry.position[sweeps // 2]
         cell_area = background_cell_area(radar, background, mid)
         count = background.scatterer_count(cell_area)
         require_background_memory(background, count, held)
@@ -380,8 +381,8 @@ def _plan(radar: Radar, trajectory: Trajectory, look: Look, targets: Sequence[Po
 def _product(plan: dict, samples: NDArray, part: slice, first: bool) -> xr.Dataset:
     """The raw product of the sweeps ``part`` (:func:`make_raw_product`); with ``first`` also
     the variables without a sweep dimension."""
-    def cut(geometry: dict | None) -> dict | None:
-        return None if geometry is None else {k: v[part] for k, v in geometry.items()}
+    def cut(geometry: SweepGeometry | None) -> SweepGeometry | None:
+        return None if geometry is None else geometry.select(part)
 
     geometry, recorded = cut(plan["geometry"]), cut(plan["recorded_geometry"])
     product = make_raw_product(
@@ -405,20 +406,20 @@ def _product(plan: dict, samples: NDArray, part: slice, first: bool) -> xr.Datas
     return product
 
 
-def _check_beat_frequencies(radar: Radar, geometry: dict, positions: NDArray,
+def _check_beat_frequencies(radar: Radar, geometry: SweepGeometry, positions: NDArray,
                             velocities: NDArray, target_count: int) -> None:
     """Refuse echoes whose beat frequency exceeds the Nyquist limit (they would wrap around).
 
     ``K tau + f_c dtau/dt`` (:func:`mitsar.model.signal.apparent_beat_frequency`) at mid-sweep of
     the first, middle and last sweeps, for every scatterer.
     """
-    sweeps = len(geometry["slow_time"])
+    sweeps = len(geometry.slow_time)
     for sweep in sorted({0, sweeps // 2, sweeps - 1}):
-        time = geometry["slow_time"][sweep] + radar.sweep_duration / 2
-        offset = positions + velocities * time - geometry["position"][sweep]
+        time = geometry.slow_time[sweep] + radar.sweep_duration / 2
+        offset = positions + velocities * time - geometry.position[sweep]
         slant_range = np.linalg.norm(offset, axis=-1)
         rate = 2 / SPEED_OF_LIGHT * np.einsum(
-            "mi,mi->m", velocities - geometry["velocity"][sweep], offset) / slant_range
+            "mi,mi->m", velocities - geometry.velocity[sweep], offset) / slant_range
         beat = apparent_beat_frequency(2 * slant_range / SPEED_OF_LIGHT, rate, radar)
         worst = int(np.argmax(np.abs(beat)))
         if abs(beat[worst]) > radar.sampling_frequency / 2:
@@ -431,7 +432,7 @@ def _check_beat_frequencies(radar: Radar, geometry: dict, positions: NDArray,
                 f"{beat[worst]:.4g} Hz at {slant_range[worst]:.3f} m (sweep {sweep})")
 
 
-def _echo_amplitudes(radar: Radar, look: Look, geometry: dict, positions: NDArray,
+def _echo_amplitudes(radar: Radar, look: Look, geometry: SweepGeometry, positions: NDArray,
                      velocities: NDArray, reflectivity: NDArray, *, normalized: bool,
                      pattern: bool) -> NDArray[np.complex128]:
     """Complex amplitude of every scatterer in every sweep, shape (sweeps, scatterers).
@@ -440,12 +441,12 @@ def _echo_amplitudes(radar: Radar, look: Look, geometry: dict, positions: NDArra
     mid-sweep (paper eq. 2).
     """
     offset = positions[None, :, :] + velocities[None, :, :] * (
-        geometry["slow_time"][:, None, None] + radar.sweep_duration / 2) \
-        - geometry["position"][:, None, :]
+        geometry.slow_time[:, None, None] + radar.sweep_duration / 2) \
+        - geometry.position[:, None, :]
     centre_range = np.linalg.norm(offset, axis=-1)
     amplitude = reflectivity.astype(complex)
     if pattern:
-        frames = antenna_frame(look, *geometry["attitude"].T)
+        frames = antenna_frame(look, *geometry.attitude.T)
         directions = offset / centre_range[..., None]
         amplitude = amplitude * np.sqrt(two_way_pattern(
             directions, frames[:, None], radar.azimuth_beamwidth, radar.elevation_beamwidth))
@@ -454,14 +455,15 @@ def _echo_amplitudes(radar: Radar, look: Look, geometry: dict, positions: NDArra
     return amplitude
 
 
-def _sample_times(radar: Radar, geometry: dict, sweep_slice: slice) -> NDArray:
+def _sample_times(radar: Radar, geometry: SweepGeometry, sweep_slice: slice) -> NDArray:
     """Absolute time of every sample of the sweeps in ``sweep_slice``, shape (sweeps, N_s)."""
-    return (geometry["slow_time"][sweep_slice, None] + radar.sweep_duration / 2
+    return (geometry.slow_time[sweep_slice, None] + radar.sweep_duration / 2
             + fast_time(radar)[None, :])
 
 
-def _sum_echoes_numpy(radar: Radar, trajectory: Trajectory, geometry: dict, positions: NDArray,
-                      velocities: NDArray, amplitude: NDArray, *, rvp: bool, progress: bool,
+def _sum_echoes_numpy(radar: Radar, trajectory: Trajectory, geometry: SweepGeometry,
+                      positions: NDArray, velocities: NDArray, amplitude: NDArray, *,
+                      rvp: bool, progress: bool,
                       chunk_elements: int, offsets: tuple[NDArray, NDArray] | None = None
                       ) -> NDArray[np.complex128]:
     """Reference sum of the dechirped echoes, vectorised over (sweep, sample, scatterer).
@@ -470,7 +472,7 @@ def _sum_echoes_numpy(radar: Radar, trajectory: Trajectory, geometry: dict, posi
     (:func:`_phase_centres`; exact bistatic delay, :func:`mitsar.model.signal.bistatic_delay`);
     ``None``: the monostatic antenna at the track. The Python loop runs over memory chunks only.
     """
-    sweeps = len(geometry["slow_time"])
+    sweeps = len(geometry.slow_time)
     times = fast_time(radar)
     sample_count = len(times)
     samples = np.zeros((sweeps, sample_count), dtype=complex)
@@ -494,8 +496,9 @@ def _sum_echoes_numpy(radar: Radar, trajectory: Trajectory, geometry: dict, posi
     return samples
 
 
-def _sum_echoes_drjit(radar: Radar, trajectory: Trajectory, geometry: dict, positions: NDArray,
-                      velocities: NDArray, amplitude: NDArray, *, rvp: bool, progress: bool,
+def _sum_echoes_drjit(radar: Radar, trajectory: Trajectory, geometry: SweepGeometry,
+                      positions: NDArray, velocities: NDArray, amplitude: NDArray, *,
+                      rvp: bool, progress: bool,
                       chunk_elements: int, offsets: tuple[NDArray, NDArray] | None = None
                       ) -> NDArray[np.complex128]:
     """Sum of the dechirped echoes as a Dr.Jit kernel: one lane per sample, loop over scatterers.
@@ -504,7 +507,7 @@ def _sum_echoes_drjit(radar: Radar, trajectory: Trajectory, geometry: dict, posi
     geometry and phase in float64, sin/cos of the wrapped phase in float32.
     """
     require_llvm()
-    sweeps = len(geometry["slow_time"])
+    sweeps = len(geometry.slow_time)
     times = fast_time(radar)
     sample_count = len(times)
     sweeps_per_chunk = max(1, min(sweeps, chunk_elements // sample_count))

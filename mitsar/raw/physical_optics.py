@@ -69,9 +69,9 @@ class FacetEchoes:
         For the shadow rays (in the state of the sweeps being deposited).
     facets : FacetSet
         The facets that use physical optics.
-    geometry : dict
-        Platform state per sweep of the whole acquisition (``slow_time``, ``position``,
-        ``velocity``, :func:`mitsar.raw.product.sweep_geometry`).
+    geometry : SweepGeometry
+        Platform state per sweep of the whole acquisition
+        (:func:`mitsar.raw.product.sweep_geometry`).
     frames : numpy.ndarray, shape (sweeps, 3, 3)
         Antenna-to-world rotations per sweep.
     ranges : numpy.ndarray
@@ -98,8 +98,8 @@ class FacetEchoes:
         self.radar, self.scene, self.facets = radar, scene, facets
         self.geometry, self.frames, self.ranges = geometry, frames, ranges
         self.step = hg.range_step(radar, bins_per_cell)
-        self.times = np.asarray(geometry["slow_time"], float) + radar.sweep_duration / 2
-        positions = np.asarray(geometry["position"], dtype=np.float64)
+        self.times = np.asarray(geometry.slow_time, float) + radar.sweep_duration / 2
+        positions = np.asarray(geometry.position, dtype=np.float64)
         shape_velocity = (np.zeros((len(facets.shape_ids), 3)) if velocities is None
                           else np.asarray(velocities, dtype=np.float64))
         tri = np.asarray(facets.triangles)
@@ -191,7 +191,7 @@ class FacetEchoes:
                  prefix: NDArray, sub: NDArray, rvp: bool, normalized: bool) -> None:
         radar = self.radar
         t = self.times[sweeps]
-        p = self.geometry["position"][sweeps]
+        p = self.geometry.position[sweeps]
         frames = self.frames[sweeps]
         last = self._moved(self.triangles[sub], self.shape[sub], t)
         u_exit, _, p_exit = _pattern(last.mean(axis=1) - p, frames, radar)
@@ -229,7 +229,7 @@ class FacetEchoes:
                                                  two_way_pattern=pattern2) * amplitude
         # path L = |c − I| + |p − c|, its rate with the image moving as the mirrored platform
         # velocity in planes that translate with their shapes (docs/multipath.md, Doppler)
-        v_p = self.geometry["velocity"][sweeps][keep]
+        v_p = self.geometry.velocity[sweeps][keep]
         v_image = v_p
         for m in range(length - 1):
             anchor_velocity = (self.facet_velocity[prefix[keep, m]] if self.motions is None

@@ -7,10 +7,9 @@ The raw product's schema, maker and accessors (``make_raw_product``, ``radar_of`
 
 from __future__ import annotations
 
-import numpy as np
-
 from mitsar.budget import require_memory
 from mitsar.model.geometry.attitude import Look, boresight
+from mitsar.model.geometry.sweeps import SweepGeometry
 from mitsar.model.geometry.trajectory import Trajectory
 from mitsar.model.radar import Radar
 from mitsar.model.signal import sweep_start_times
@@ -35,22 +34,22 @@ def require_raw_memory(where: str, radar: Radar, sweeps: int) -> None:
 
 
 def sweep_geometry(radar: Radar, trajectory: Trajectory, look: Look,
-                   sweeps: int) -> dict[str, np.ndarray]:
+                   sweeps: int) -> SweepGeometry:
     """Platform state at mid-sweep ``eta_k + T/2`` for ``sweeps`` sweeps.
 
     Returns
     -------
-    dict
-        ``slow_time`` (sweeps,), ``position``, ``velocity``, ``attitude``, ``boresight``
-        (sweeps, 3).
+    SweepGeometry
+        ``slow_time`` (sweeps,) [s], ``position`` [m], ``velocity`` [m/s], ``attitude`` [rad],
+        ``boresight`` (sweeps, 3).
     """
     slow_time = sweep_start_times(radar, sweeps)
     centre = slow_time + radar.sweep_duration / 2
     attitude = trajectory.attitude_at(centre)
-    return {
-        "slow_time": slow_time,
-        "position": trajectory.position(centre),
-        "velocity": trajectory.velocity(centre),
-        "attitude": attitude,
-        "boresight": boresight(look, attitude[:, 0], attitude[:, 1], attitude[:, 2]),
-    }
+    return SweepGeometry(
+        slow_time=slow_time,
+        position=trajectory.position(centre),
+        velocity=trajectory.velocity(centre),
+        attitude=attitude,
+        boresight=boresight(look, attitude[:, 0], attitude[:, 1], attitude[:, 2]),
+    )

@@ -28,6 +28,7 @@ from mitsar.model.geometry.navigation import (
     describe_navigation,
     resolve_navigation,
 )
+from mitsar.model.geometry.sweeps import SweepGeometry
 from mitsar.model.geometry.trajectory import Trajectory
 from mitsar.model.radar import Radar
 from mitsar.model.signal import sweep_count
@@ -120,10 +121,10 @@ class TraceRun:
         self.recorded = resolve_navigation(where, trajectory, navigation)
         self.recorded_geometry = (None if self.recorded is None
                                   else sweep_geometry(radar, self.recorded, look, total))
-        self.frames = antenna_frame(look, *self.geometry["attitude"].T)
+        self.frames = antenna_frame(look, *self.geometry.attitude.T)
         receiver_look = self.config.receiver_look
         rx_frames = (None if receiver_look is None
-                     else antenna_frame(receiver_look, *self.geometry["attitude"].T))
+                     else antenna_frame(receiver_look, *self.geometry.attitude.T))
         self.setup = make_setup(radar, self.frames, self.config, self.config.receiver_offset,
                                 rx_frames)
         self.backscatter = self.config.backscatter
@@ -143,18 +144,18 @@ class TraceRun:
             self.scatterers = _moving_scatterers(self.scatterers, surface_velocities(
                 self.scene, self.motion.motion))
         facets = self._facets(where, self.config.physical_optics)
-        low, high = range_limits(self.scatterers, self.geometry["position"],
+        low, high = range_limits(self.scatterers, self.geometry.position,
                                  trajectory.max_speed(), radar, trajectory.duration)
         if self.config.max_depth > 1:
-            low, high = _multipath_limits(self.scene, self.geometry["position"], low, high,
+            low, high = _multipath_limits(self.scene, self.geometry.position, low, high,
                                           radar, trajectory.max_speed(), self.config.max_depth,
                                           self.setup.receiver_offset)
         if facets is not None:
-            low, high = _facet_limits(facets.triangles, self.geometry["position"], low, high,
+            low, high = _facet_limits(facets.triangles, self.geometry.position, low, high,
                                       radar, trajectory.max_speed() + self.motion.max_speed())
         if self.motion.rotating:  # rotating shapes and paths: their bounding spheres' ranges
-            near, far = self.motion.range_span(self.geometry["position"],
-                                               self.geometry["slow_time"])
+            near, far = self.motion.range_span(self.geometry.position,
+                                               self.geometry.slow_time)
             margin = (radar.carrier_frequency / radar.chirp_rate) * 2.0 * (
                 trajectory.max_speed() + self.motion.max_speed()) + 2 * radar.range_resolution
             low, high = min(low, near - margin), max(high, min(far, radar.max_range) + margin)
@@ -225,7 +226,7 @@ class TraceRun:
         try:
             for sweep in tqdm(self.sweeps, disable=not progress, desc="trace (moving shapes)",
                               unit="sweep"):
-                middle = float(self.geometry["slow_time"][sweep]) + self.radar.sweep_duration / 2
+                middle = float(self.geometry.slow_time[sweep]) + self.radar.sweep_duration / 2
                 self.motion.set_time(middle)
                 yield from self.integrator.trace_histograms(
                     self.scene, self.geometry, self.radar, self.frames,
@@ -261,12 +262,12 @@ class TraceRun:
                 "config": {"trajectory": self.trajectory.describe(),
                            "navigation": describe_navigation(self.navigation)}}
 
-    def geometry_of(self, sweeps: NDArray) -> tuple[dict[str, NDArray], dict | None]:
+    def geometry_of(self, sweeps: NDArray) -> tuple[SweepGeometry, SweepGeometry | None]:
         """(recorded, true) geometry of some sweeps; true is None without navigation errors."""
-        true = {key: value[sweeps] for key, value in self.geometry.items()}
+        true = self.geometry.select(sweeps)
         if self.recorded_geometry is None:
             return true, None
-        return {key: value[sweeps] for key, value in self.recorded_geometry.items()}, true
+        return self.recorded_geometry.select(sweeps), true
 
 
 def _moving_scatterers(scatterers: ScattererSet, shape_velocities: NDArray) -> ScattererSet:

@@ -182,7 +182,7 @@ def trace_paths(radar: Radar, trajectory: Trajectory, look: Look, scene: Any, *,
         log[key] = np.where(dead[..., None], np.nan, log[key])
     end = np.where(dead[..., None], np.nan, end)
     log["hit"] = log["hit"] & log["alive"]
-    tx = run.geometry["position"][sweep]
+    tx = run.geometry.position[sweep]
     data = xr.Dataset(
         {"start": (("path", "segment", "xyz"), log["origin"], {"units": "m"}),
          "end": (("path", "segment", "xyz"), end, {"units": "m"}),
@@ -217,7 +217,7 @@ def trace_paths(radar: Radar, trajectory: Trajectory, look: Look, scene: Any, *,
 
 def _setup_for(run: TraceRun, config: Any) -> Any:
     rx_frames = (None if run.receiver_look is None
-                 else antenna_frame(run.receiver_look, *run.geometry["attitude"].T))
+                 else antenna_frame(run.receiver_look, *run.geometry.attitude.T))
     return make_setup(run.radar, run.frames, config, run.setup.receiver_offset, rx_frames)
 
 

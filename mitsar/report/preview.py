@@ -50,8 +50,8 @@ def preview(path: str | Path, out: str | Path, overwrite: bool = False) -> Path:
     geometry = sweep_geometry(radar, trajectory, look, max(sweep_count(radar,
                                                                       trajectory.duration), 1))
     scene = scene_or_stand_in(None if scene_name is None else load_scene(scene_name), planes,
-                              points, geometry["position"])
-    figure = plot_preview(scene, radar, look, geometry["position"], geometry["attitude"],
+                              points, geometry.position)
+    figure = plot_preview(scene, radar, look, geometry.position, geometry.attitude,
                           title=title)
     written = save_figure(figure, out, overwrite=overwrite, dpi=110)
     plt.close(figure)

@@ -33,6 +33,7 @@ from numpy.typing import NDArray
 
 from mitsar.model.doublelobe import TABLE_SIZE, interp_theta_table
 from mitsar.model.geometry.antenna import field_pattern
+from mitsar.model.geometry.sweeps import SweepGeometry
 from mitsar.model.geometry.visibility import (
     shared_probe_sweeps,
     sight_line_motion,
@@ -52,9 +53,11 @@ from mitsar.plugins.integrators.radar.blocks import (
     packet_window,
 )
 from mitsar.plugins.integrators.radar.constants import (
-    BACKSCATTER_FLOATS,
     MAX_CHUNK_SWEEPS,
     Constants,
+    ScattererArrays,
+    SweepArrays,
+    VisibilityBlocks,
     backscatter_sweep_arrays,
     chunk_bounds,
     chunk_step_arrays,
@@ -71,17 +74,18 @@ SURFACE_OFFSET = 2e-5
 """Offset of a shadow ray's end above the surface, relative to ``1 + max|p|`` [-]."""
 
 
-def _moved(p: Any, sc: dict, name: str, m: Any, t: Any) -> Any:
-    """A scatterer coordinate at time ``t``: ``p + v t`` with ``v = sc[name][m]`` (``m`` an
-    index, or a gather function of a name); ``p`` itself in a static set (``sc["static"]``: a
-    kernel variant without the velocity gathers, compiled once)."""
-    if sc["static"]:
-        return p
-    v = m(name) if callable(m) else dr.gather(type(p), sc[name], m)
-    return p + v * t
+def _moved(position: Any, velocity: Any, scatterer: Any, time: Any, static: bool) -> Any:
+    """A scatterer coordinate at ``time`` [s]: ``position + velocity[scatterer] time``
+    (``velocity``: the device array of that coordinate's velocity, gathered as ``position``'s
+    type); ``position`` itself in a static set (a kernel variant without the velocity gathers,
+    compiled once)."""
+    if static:
+        return position
+    return position + dr.gather(type(position), velocity, scatterer) * time
 
 
-def candidates(sc: dict, k: Constants, count: int) -> tuple[Any, Any, Any]:
+def candidates(scatterers: ScattererArrays, constants: Constants, count: int
+               ) -> tuple[Any, Any, Any]:
     """Scatterers that may lie in the beam of some sweep of the chunk (``dr.compress``), and
     the smallest and largest of their ranges from the antenna at the middle sweep [m]
     (Float32, width 1).
@@ -93,64 +97,73 @@ def candidates(sc: dict, k: Constants, count: int) -> tuple[Any, Any, Any]:
     """
     f32 = mi.Float
     m = dr.arange(mi.UInt32, count)
-    t = k.f32("mid_time")
-    o = mi.Vector3f(*(_moved(dr.gather(f32, sc[f"p{a}32"], m), sc, f"v{a}32", m, t)
-                      - k.f32(f"mid_p{a}") for a in "xyz"))
+    t = constants.f32("mid_time")
+    o = mi.Vector3f(*(_moved(dr.gather(f32, position, m), velocity, m, t, scatterers.static)
+                      - constants.f32(f"mid_p{a}")
+                      for position, velocity, a in zip(scatterers.position32,
+                                                       scatterers.velocity32, "xyz",
+                                                       strict=True)))
     r = dr.norm(o)
-    u_az, u_el, cos_b = frame_sines(o / r, k.f32, "mid_f")
-    margin = 2.0 * k.f32("mid_disp") / r + k.f32("mid_turn") + 1e-4
-    active = ((cos_b > -margin) & (dr.abs(u_az) < k.f32("cull_az") + margin)
-              & (dr.abs(u_el) < k.f32("cull_el") + margin)) | (r <= 2.0 * k.f32("mid_disp"))
+    u_az, u_el, cos_b = frame_sines(o / r, lambda i, j: constants.f32(f"mid_f{i}{j}"))
+    margin = 2.0 * constants.f32("mid_disp") / r + constants.f32("mid_turn") + 1e-4
+    active = ((cos_b > -margin) & (dr.abs(u_az) < constants.f32("cull_az") + margin)
+              & (dr.abs(u_el) < constants.f32("cull_el") + margin)) \
+        | (r <= 2.0 * constants.f32("mid_disp"))
     return (dr.compress(active), dr.min(dr.select(active, r, dr.inf)),
             dr.max(dr.select(active, r, 0.0)))
 
 
-def cull(sc: dict, sw: dict, k: Constants, found: Any, lanes: int) -> Any:
+def cull(scatterers: ScattererArrays, sweep_arrays: SweepArrays, constants: Constants,
+         found: Any, lanes: int) -> Any:
     """Indices of the (scatterer, sweep) lanes inside the beam and the bin grid.
 
     Cheap float32 geometry over every lane; only the surviving lanes (a small fraction for a
     room: the beam) pay for shadow rays, float64 phase and the scatter (``dr.compress``).
     """
+    s, m = lane_pairs(dr.arange(mi.UInt32, lanes), constants, found)
+    return dr.compress(_in_beam(constants, scatterers, sweep_arrays, s, m))
+
+
+def _in_beam(constants: Constants, scatterers: ScattererArrays, sweep_arrays: SweepArrays,
+             sweep: Any, scatterer: Any) -> Any:
+    """The exact beam, 2D-slab (``sweep_arrays.planar``) and bin-grid test of (``sweep``,
+    ``scatterer``) lanes in float32."""
     f32 = mi.Float
-    s, m = lane_pairs(dr.arange(mi.UInt32, lanes), k, found)
 
-    def gs(name: str) -> Any:
-        return dr.gather(f32, sw[name], s)
+    def at_sweep(array: Any) -> Any:
+        return dr.gather(f32, array, sweep)
 
-    def gm(name: str) -> Any:
-        return dr.gather(f32, sc[name], m)
-
-    return dr.compress(_in_beam(k, sc, gs, gm, sw["planar"]))
-
-
-def _in_beam(k: Constants, sc: dict, gs: Any, gm: Any, planar: bool) -> Any:
-    """The exact beam, 2D-slab (``planar``) and bin-grid test of (sweep, scatterer) lanes in
-    float32; ``gs(name)`` / ``gm(name)`` gather a Float32 sweep / scatterer array."""
-    t = None if sc["static"] else gs("time32")
-    o = mi.Vector3f(*(_moved(gm(f"p{a}32"), sc, f"v{a}32", gm, t) - gs(f"p{a}32")
-                      for a in "xyz"))
+    t = None if scatterers.static else at_sweep(sweep_arrays.time32)
+    o = mi.Vector3f(*(_moved(dr.gather(f32, position, scatterer), velocity, scatterer, t,
+                             scatterers.static) - at_sweep(antenna)
+                      for position, velocity, antenna in zip(
+                          scatterers.position32, scatterers.velocity32,
+                          sweep_arrays.position32, strict=True)))
     r = dr.norm(o)
-    u_az, u_el, cos_b = frame_sines(o / r, gs, "f")
-    slack = 2.0 * k.f32("inv_step")  # float32 range error << 2 bins
-    x = (r - k.f32("first_range")) * k.f32("inv_step")
-    active = ((cos_b > 0.0) & (dr.abs(u_az) < k.f32("cull_az"))
-              & (dr.abs(u_el) < k.f32("cull_el")) & (r > 0.0))
-    if planar:  # 2D mode: only the slab |(q - a).n| <= slab_half around the plane
-        active &= dr.abs(o.x * gs("n2x") + o.y * gs("n2y") + o.z * gs("n2z")) \
-            <= k.f32("slab_half")
+    u_az, u_el, cos_b = frame_sines(o / r, lambda i, j: at_sweep(sweep_arrays.frame[i][j]))
+    slack = 2.0 * constants.f32("inv_step")  # float32 range error << 2 bins
+    x = (r - constants.f32("first_range")) * constants.f32("inv_step")
+    active = ((cos_b > 0.0) & (dr.abs(u_az) < constants.f32("cull_az"))
+              & (dr.abs(u_el) < constants.f32("cull_el")) & (r > 0.0))
+    if sweep_arrays.planar:  # 2D mode: only the slab |(q - a).n| <= slab_half around the plane
+        normal = sweep_arrays.plane_normal
+        active &= dr.abs(o.x * at_sweep(normal[0]) + o.y * at_sweep(normal[1])
+                         + o.z * at_sweep(normal[2])) <= constants.f32("slab_half")
     return (active
-            & (x > -slack - k.f32("doppler_bins")) & (x < k.f32("last_lower") + slack
-                                                        + k.f32("doppler_bins")))
+            & (x > -slack - constants.f32("doppler_bins"))
+            & (x < constants.f32("last_lower") + slack + constants.f32("doppler_bins")))
 
 
-def _lane_geometry(sc: dict, sw: dict, s: Any, m: Any) -> tuple[list, list, Any, Any, Any]:
-    """Mid-sweep geometry of (sweep ``s``, scatterer ``m``) lanes in float64: scatterer ``q``
+def _lane_geometry(scatterers: ScattererArrays, sweep_arrays: SweepArrays, sweep: Any,
+                   scatterer: Any) -> tuple[list, list, Any, Any, Any]:
+    """Mid-sweep geometry of (``sweep``, ``scatterer``) lanes in float64: scatterer ``q``
     (moving with its velocity), antenna ``a``, range ``r``, ``1/r`` and the unit direction ``d``
     (float32), antenna -> scatterer."""
     f64, f32 = mi.Float64, mi.Float
-    t = None if sc["static"] else dr.gather(f64, sw["time"], s)
-    q = [_moved(dr.gather(f64, sc[f"p{a}"], m), sc, f"v{a}", m, t) for a in "xyz"]
-    a = [dr.gather(f64, sw[f"p{a}"], s) for a in "xyz"]
+    t = None if scatterers.static else dr.gather(f64, sweep_arrays.time, sweep)
+    q = [_moved(dr.gather(f64, position, scatterer), velocity, scatterer, t, scatterers.static)
+         for position, velocity in zip(scatterers.position, scatterers.velocity, strict=True)]
+    a = [dr.gather(f64, antenna, sweep) for antenna in sweep_arrays.position]
     o = [qi - ai for qi, ai in zip(q, a, strict=True)]
     r = dr.sqrt(o[0] * o[0] + o[1] * o[1] + o[2] * o[2])
     inv_r = 1.0 / r
@@ -158,32 +171,35 @@ def _lane_geometry(sc: dict, sw: dict, s: Any, m: Any) -> tuple[list, list, Any,
     return q, a, r, inv_r, d
 
 
-def _shadow_ray(sc: dict, m: Any, q: list, a: list, d: Any) -> tuple[Any, Any]:
-    """The shadow segment antenna -> point just above the scatterer's surface on the antenna's
-    side (docs/integrator.md, "Shadow rays"), and the scatterer's normal."""
+def _shadow_ray(scatterers: ScattererArrays, scatterer: Any, target: list, antenna: list,
+                direction: Any) -> tuple[Any, Any]:
+    """The shadow segment antenna -> point just above the surface of ``scatterer`` (at
+    ``target``, float64 [m]) on the antenna's side (docs/integrator.md, "Shadow rays"), and the
+    scatterer's normal; ``direction``: the unit vector antenna -> scatterer."""
     f32 = mi.Float
-    n = mi.Vector3f(*(dr.gather(f32, sc[f"n{a}"], m) for a in "xyz"))
-    q32 = mi.Point3f(*(f32(qi) for qi in q))
-    a32 = mi.Point3f(*(f32(ai) for ai in a))
-    side = dr.select(dr.dot(n, d) > 0.0, -1.0, 1.0)
+    n = mi.Vector3f(*(dr.gather(f32, c, scatterer) for c in scatterers.normal))
+    q32 = mi.Point3f(*(f32(qi) for qi in target))
+    a32 = mi.Point3f(*(f32(ai) for ai in antenna))
+    side = dr.select(dr.dot(n, direction) > 0.0, -1.0, 1.0)
     eps = SURFACE_OFFSET * (1.0 + dr.max(dr.abs(q32)))
     seg = (q32 + n * (side * eps)) - a32
     dist = dr.norm(seg)
     ray = mi.Ray3f(a32, seg / dist)
-    ray.maxt = dist * (1.0 - 1e-6) - dr.gather(f32, sc["stop"], m)
+    ray.maxt = dist * (1.0 - 1e-6) - dr.gather(f32, scatterers.stop, scatterer)
     return ray, n
 
 
-def _visible(scene: Any, sc: dict, sw: dict, s: Any, m: Any, active: Any) -> Any:
-    """Shadow test of (sweep ``s``, scatterer ``m``) lanes: True where the segment is free."""
-    q, a, _, _, d = _lane_geometry(sc, sw, s, m)
-    ray, _ = _shadow_ray(sc, m, q, a, d)
+def _visible(scene: Any, scatterers: ScattererArrays, sweep_arrays: SweepArrays, sweep: Any,
+             scatterer: Any, active: Any) -> Any:
+    """Shadow test of (``sweep``, ``scatterer``) lanes: True where the segment is free."""
+    q, a, _, _, d = _lane_geometry(scatterers, sweep_arrays, sweep, scatterer)
+    ray, _ = _shadow_ray(scatterers, scatterer, q, a, d)
     active = active & (ray.maxt > 0.0)
     return active & ~scene.ray_test(ray, active)
 
 
-def probe(scene: Any, sc: dict, sw: dict, k: Constants, found: Any, width: int,
-          blocks: int) -> Any:
+def probe(scene: Any, scatterers: ScattererArrays, sweep_arrays: SweepArrays,
+          constants: Constants, found: Any, width: int, blocks: int) -> Any:
     """Visibility of each (candidate, block) pair at its block's first and last sweep.
 
     Lanes are the ``width`` candidates ``first ..`` of the launch times the ``blocks`` blocks of
@@ -192,66 +208,77 @@ def probe(scene: Any, sc: dict, sw: dict, k: Constants, found: Any, width: int,
     """
     u32 = mi.UInt32
     idx = dr.arange(u32, width * blocks)
-    local = idx // k["blocks"]
-    block = idx - local * k["blocks"]
-    m = dr.gather(u32, found, local + k["first"])
-    return _block_visibility(scene, sc, sw, m, dr.gather(u32, sw["block_first"], block),
-                             dr.gather(u32, sw["block_last"], block))
+    local = idx // constants["blocks"]
+    block = idx - local * constants["blocks"]
+    m = dr.gather(u32, found, local + constants["first"])
+    return _block_visibility(scene, scatterers, sweep_arrays, m,
+                             dr.gather(u32, sweep_arrays.blocks.first_sweep, block),
+                             dr.gather(u32, sweep_arrays.blocks.last_sweep, block))
 
 
-def shared_probe(scene: Any, sc: dict, sw: dict, k: Constants, found: Any, width: int,
-                 probes: int, blocks: int) -> Any:
+def shared_probe(scene: Any, scatterers: ScattererArrays, sweep_arrays: SweepArrays,
+                 constants: Constants, found: Any, width: int, probes: int, blocks: int
+                 ) -> Any:
     """Visibility codes as :func:`probe` returns them, from one shadow ray per candidate and
-    probed sweep (``sw["probe_sweep"]``), each shared by two neighbouring blocks: block ``b``
-    counts the rays at its sweeps ``probe_first[b]`` and ``probe_end[b]`` (the next block's
-    first; docs/integrator.md §"Visibility reuse", ``shared_ends``). Two kernels: the rays
-    (lanes probe-slowest, ``k["width"]`` candidates each), then the codes."""
+    probed sweep (``sweep_arrays.probes.sweep``), each shared by two neighbouring blocks: block
+    ``b`` counts the rays at its sweeps ``probes.first[b]`` and ``probes.end[b]`` (the next
+    block's first; docs/integrator.md §"Visibility reuse", ``shared_ends``). Two kernels: the
+    rays (lanes probe-slowest, ``constants["width"]`` candidates each), then the codes."""
     u32 = mi.UInt32
+    shared = sweep_arrays.probes
     idx = dr.arange(u32, width * probes)
-    probe_index = idx // k["width"]
-    m = dr.gather(u32, found, idx - probe_index * k["width"] + k["first"])
-    seen = u32(dr.select(_visible(scene, sc, sw, dr.gather(u32, sw["probe_sweep"], probe_index),
-                                  m, mi.Bool(True)), 1, 0))
+    probe_index = idx // constants["width"]
+    m = dr.gather(u32, found, idx - probe_index * constants["width"] + constants["first"])
+    seen = u32(dr.select(_visible(scene, scatterers, sweep_arrays,
+                                  dr.gather(u32, shared.sweep, probe_index), m, mi.Bool(True)),
+                         1, 0))
     dr.eval(seen)
     idx = dr.arange(u32, width * blocks)
-    local = idx // k["blocks"]
-    block = idx - local * k["blocks"]
-    return (dr.gather(u32, seen, dr.gather(u32, sw["probe_first"], block) * k["width"] + local)
-            + dr.gather(u32, seen, dr.gather(u32, sw["probe_end"], block) * k["width"] + local))
+    local = idx // constants["blocks"]
+    block = idx - local * constants["blocks"]
+    return (dr.gather(u32, seen, dr.gather(u32, shared.first, block) * constants["width"]
+                      + local)
+            + dr.gather(u32, seen, dr.gather(u32, shared.end, block) * constants["width"]
+                        + local))
 
 
-def trace(scene: Any, sc: dict, sw: dict, k: Constants, found: Any, lanes: Any, re: Any,
-          im: Any, visibility: Any = None) -> None:
+def trace(scene: Any, scatterers: ScattererArrays, sweep_arrays: SweepArrays,
+          constants: Constants, found: Any, lanes: Any, re: Any, im: Any,
+          visibility: Any = None) -> None:
     """Trace the culled lanes ``lanes`` and deposit them into ``re``/``im`` (order 0).
 
-    Everything variable is in ``sc`` (scatterer arrays), ``sw`` (sweep arrays of the chunk) and
-    ``k`` (packed constants), so the traced kernel is the same for every launch.
+    Everything variable is in ``scatterers``, ``sweep_arrays`` (the chunk's) and ``constants``
+    (packed), so the traced kernel is the same for every launch.
     ``visibility`` (optional) holds the :func:`probe` codes of the launch: lanes of pairs seen
     (hidden) at both ends of their block are taken as seen (hidden) without a ray, the others
     cast their own; without it every lane casts its own shadow ray.
     """
-    s, m = lane_pairs(lanes, k, found)
+    s, m = lane_pairs(lanes, constants, found)
     code = None
     if visibility is not None:
-        local = lanes // k["sweeps"]
+        local = lanes // constants["sweeps"]
         code = dr.gather(mi.UInt32, visibility,
-                         local * k["blocks"] + dr.gather(mi.UInt32, sw["block_of"], s))
-    _contribute(scene, sc, sw, k, s, m, mi.Bool(True), code, re, im)
+                         local * constants["blocks"]
+                         + dr.gather(mi.UInt32, sweep_arrays.blocks.block_of, s))
+    _contribute(scene, scatterers, sweep_arrays, constants, s, m, mi.Bool(True), code, re, im)
 
 
-def _block_visibility(scene: Any, sc: dict, sw: dict, m: Any, s0: Any, s1: Any) -> Any:
-    """Visibility code of scatterers ``m`` over blocks of sweeps ``s0 .. s1``: the number of
-    the two ends (first and last sweep) that see it (0, 1 or 2; one ray if ``s0 == s1``)."""
+def _block_visibility(scene: Any, scatterers: ScattererArrays, sweep_arrays: SweepArrays,
+                      scatterer: Any, first_sweep: Any, last_sweep: Any) -> Any:
+    """Visibility code of ``scatterer`` over blocks of sweeps ``first_sweep .. last_sweep``:
+    the number of the two ends that see it (0, 1 or 2; one ray if they are one sweep)."""
     u32 = mi.UInt32
-    first = _visible(scene, sc, sw, s0, m, mi.Bool(True))
-    single = s0 == s1
-    last = dr.select(single, first, _visible(scene, sc, sw, s1, m, ~single))
+    first = _visible(scene, scatterers, sweep_arrays, first_sweep, scatterer, mi.Bool(True))
+    single = first_sweep == last_sweep
+    last = dr.select(single, first,
+                     _visible(scene, scatterers, sweep_arrays, last_sweep, scatterer, ~single))
     return u32(dr.select(first, 1, 0)) + u32(dr.select(last, 1, 0))
 
 
-def _contribute(scene: Any, sc: dict, sw: dict, k: Constants, s: Any, m: Any, active: Any,
-                code: Any, re: Any, im: Any) -> None:
-    """Contribution of (sweep ``s``, scatterer ``m``) lanes, deposited into ``re``/``im``.
+def _contribute(scene: Any, scatterers: ScattererArrays, sweep_arrays: SweepArrays,
+                constants: Constants, sweep: Any, scatterer: Any, active: Any, code: Any,
+                re: Any, im: Any) -> None:
+    """Contribution of (``sweep``, ``scatterer``) lanes, deposited into ``re``/``im``.
 
     ``code`` (optional) is the visibility of the lane's block (:func:`_block_visibility`):
     2 / 0 take the lane as seen / hidden without a ray, 1 casts its own; None: every lane casts
@@ -259,27 +286,31 @@ def _contribute(scene: Any, sc: dict, sw: dict, k: Constants, s: Any, m: Any, ac
     """
     f64, f32, u32 = mi.Float64, mi.Float, mi.UInt32
 
-    def gs(name: str, kind: type = f64) -> Any:
-        return dr.gather(kind, sw[name], s)
+    def at_sweep(array: Any, kind: type = f64) -> Any:
+        return dr.gather(kind, array, sweep)
 
-    def gm(name: str, kind: type = f64) -> Any:
-        return dr.gather(kind, sc[name], m)
+    def at_scatterer(array: Any, kind: type = f64) -> Any:
+        return dr.gather(kind, array, scatterer)
 
     # 1. Geometry at mid-sweep in float64: scatterer (moving with its velocity) and antenna.
-    q, a, r, inv_r, d = _lane_geometry(sc, sw, s, m)
-    v_rel = [-gs(f"v{ax}") if sc["static"] else gm(f"v{ax}") - gs(f"v{ax}") for ax in "xyz"]
+    q, a, r, inv_r, d = _lane_geometry(scatterers, sweep_arrays, sweep, scatterer)
+    v_rel = [-at_sweep(antenna) if scatterers.static
+             else at_scatterer(target) - at_sweep(antenna)
+             for target, antenna in zip(scatterers.velocity, sweep_arrays.velocity,
+                                        strict=True)]
     rdot = sum((qi - ai) * vi for qi, ai, vi in zip(q, a, v_rel, strict=True)) * inv_r
 
     # 2. Two-way pattern: the one-way sinc^2 power pattern is the amplitude factor.
-    u_az, u_el, _ = frame_sines(d, lambda name: gs(name, f32), "f")
-    one_way = dr.square(field_pattern(u_az, u_el, k.f32("beta_az"), k.f32("beta_el"),
-                                      DRJIT_OPS))
+    u_az, u_el, _ = frame_sines(d, lambda i, j: at_sweep(sweep_arrays.frame[i][j], f32))
+    one_way = dr.square(field_pattern(u_az, u_el, constants.f32("beta_az"),
+                                      constants.f32("beta_el"), DRJIT_OPS))
 
     # 3. sigma0 from the material's monostatic table (point targets: a row of ones).
-    ray, n = _shadow_ray(sc, m, q, a, d)
-    sigma0 = interp_theta_table(sc["tables"], TABLE_SIZE, dr.abs(dr.dot(n, d)), DRJIT_OPS,
-                                offset=f32(gm("row", u32) * TABLE_SIZE))
-    sigma = sigma0 * gm("weight", f32)
+    ray, n = _shadow_ray(scatterers, scatterer, q, a, d)
+    sigma0 = interp_theta_table(scatterers.tables, TABLE_SIZE, dr.abs(dr.dot(n, d)), DRJIT_OPS,
+                                offset=f32(at_scatterer(scatterers.table_row, u32)
+                                           * TABLE_SIZE))
+    sigma = sigma0 * at_scatterer(scatterers.weight, f32)
     active = active & (sigma > 0.0) & (ray.maxt > 0.0)
 
     # 4. Visibility: segment antenna -> point just above the surface on the antenna's side,
@@ -291,37 +322,39 @@ def _contribute(scene: Any, sc: dict, sw: dict, k: Constants, s: Any, m: Any, ac
         active &= dr.select(retest, ~scene.ray_test(ray, retest), code == 2)
 
     # 5. Amplitude (radar equation, paper eq. 2 with the two-way pattern) and the deposit.
-    amp = one_way * dr.sqrt(sigma) * dr.select(k["normalized"] > 0.0, 1.0,
-                                               f32(k["radar_const"] * inv_r * inv_r))
-    deposit(k, re, im, s * k["sweep_stride"], r, rdot, amp, gm("phase"), active)
+    amp = one_way * dr.sqrt(sigma) * dr.select(constants["normalized"] > 0.0, 1.0,
+                                               f32(constants["radar_const"] * inv_r * inv_r))
+    deposit(constants, re, im, sweep * constants["sweep_stride"], r, rdot, amp,
+            at_scatterer(scatterers.phase), active)
 
 
-def backscatter_chunk(scene: Any, device: dict, geometry: dict, frames: NDArray, radar: Radar,
-                      setup: TraceSetup, chosen: NDArray, k: dict, target_speed: float,
-                      config: TraceOptions, re: Any, im: Any,
-                      statistics: dict[str, int], visibility_block: int | None = None
-                      ) -> None:
+def backscatter_chunk(scene: Any, scatterers: ScattererArrays, geometry: SweepGeometry,
+                      frames: NDArray, radar: Radar, setup: TraceSetup, chosen: NDArray,
+                      acquisition: Constants, target_speed: float, config: TraceOptions,
+                      re: Any, im: Any, statistics: dict[str, int],
+                      visibility_block: int | None = None) -> None:
     """Mechanism 1 for one chunk of sweeps ``chosen`` (deposits into order 0).
 
-    ``k`` holds the acquisition's constants (:func:`~.constants.backscatter_constants`); the
-    chunk's bounds are added to it. ``statistics`` counts pairs, candidate pairs, shadow rays
-    (contributions: lanes in the beam and the bin grid), launches, ``visibility_rays`` (rays
-    of the block probes) and ``visibility_split`` (candidate x block pairs whose ends disagree).
-    ``visibility_block`` caps the sweeps that share shadow rays (e.g. the sweeps between two
-    scene changes; default: the chunk); blocks are cut by
+    ``acquisition`` holds the acquisition's constants (:func:`~.constants.backscatter_constants`);
+    the chunk's bounds and launch offsets replace theirs. ``statistics`` counts pairs,
+    candidate pairs, shadow rays (contributions: lanes in the beam and the bin grid), launches,
+    ``visibility_rays`` (rays of the block probes) and ``visibility_split`` (candidate x block
+    pairs whose ends disagree). ``visibility_block`` caps the sweeps that share shadow rays
+    (e.g. the sweeps between two scene changes; default: the chunk); blocks are cut by
     :func:`~mitsar.model.geometry.visibility.visibility_blocks` at ``config.visibility_feature``.
     """
-    count = dr.width(device["weight"])
-    sw = backscatter_sweep_arrays(geometry, frames, radar, chosen, setup.plane_normals)
-    k.update(chunk_bounds(geometry, frames, radar, chosen, target_speed))
-    k["first"], k["sweeps"] = 0, len(chosen)
-    motion = sight_line_motion(geometry["position"][chosen], geometry["slow_time"][chosen],
+    count = scatterers.count
+    sweep_arrays = backscatter_sweep_arrays(geometry, frames, radar, chosen,
+                                            setup.plane_normals)
+    chunk = {**chunk_bounds(geometry, frames, radar, chosen, target_speed),
+             "first": 0, "sweeps": len(chosen)}
+    motion = sight_line_motion(geometry.position[chosen], geometry.slow_time[chosen],
                                target_speed)
     # The block kernel (a lane per candidate over the chunk, docs/integrator.md §"Performance")
     # serves static 3D scatterer sets with shared shadow rays; moving sets, the 2D mode and a
     # ray per sweep keep the lane kernels. Its probes share the rays at block boundaries unless
     # the caller caps the blocks (e.g. at scene changes).
-    blocked = (block_kernel_applies(config, device["static"], sw["planar"])
+    blocked = (block_kernel_applies(config, scatterers.static, sweep_arrays.planar)
                and len(chosen) <= MAX_CHUNK_SWEEPS)
     shared = blocked and visibility_block is None
     blocks = visibility_blocks(motion, float(config.visibility_feature),
@@ -329,15 +362,16 @@ def backscatter_chunk(scene: Any, device: dict, geometry: dict, frames: NDArray,
                                else max(1, int(visibility_block)), shared_ends=shared)
     reuse = int(blocks[-1]) + 1 < len(chosen)  # else: a ray per sweep, no probe needed
     if reuse:
-        sw.update(visibility_block_arrays(blocks))
+        sweep_arrays.blocks = visibility_block_arrays(blocks)
         block_sizes = np.bincount(blocks)
         if shared:
             probe_sweeps, probe_first, probe_end = shared_probe_sweeps(
                 motion, blocks, float(config.visibility_feature))
-            sw.update(shared_probe_arrays(probe_sweeps, probe_first, probe_end))
-    k["blocks"] = int(blocks[-1]) + 1
+            sweep_arrays.probes = shared_probe_arrays(probe_sweeps, probe_first, probe_end)
+    block_count = int(blocks[-1]) + 1
+    constants = acquisition.replace(**chunk, blocks=block_count)
     with order_independent():  # dr.compress returns the indices in increasing order
-        found, nearest, farthest = candidates(device, Constants(k, BACKSCATTER_FLOATS), count)
+        found, nearest, farthest = candidates(scatterers, constants, count)
         dr.eval(found, nearest, farthest)
     width_found = dr.width(found)
     block = max(1, config.chunk_lanes // len(chosen))
@@ -349,97 +383,98 @@ def backscatter_chunk(scene: Any, device: dict, geometry: dict, frames: NDArray,
         steps, uniform, half_span = chunk_step_arrays(geometry, frames, chosen)
         # The packets cover the bins the candidates can reach (their ranges at the middle
         # sweep, the antenna's excursion, the Doppler shift and two bins of float32 slack).
-        k["bin_lo"], k["bin_width"] = packet_window(
-            float(nearest[0]), float(farthest[0]), half_span, k)
-        packets = packet_buffer(len(chosen), k["bin_width"], exact)
+        bin_lo, bin_width = packet_window(float(nearest[0]), float(farthest[0]), half_span,
+                                          constants)
+        constants = constants.replace(bin_lo=bin_lo, bin_width=bin_width)
+        packets = packet_buffer(len(chosen), bin_width, exact)
     if packets is not None:
-        sw.update(steps)
+        sweep_arrays.step = steps
         polynomial = uniform and amplitude_polynomial_holds(half_span, float(nearest[0]),
                                                             radar)
-        units = fixed_point_scale(device, k) if exact else None
+        units = fixed_point_scale(scatterers, constants) if exact else None
     for m0 in range(0, width_found, block):
         width = min(block, width_found - m0)
-        k["first"], k["width"] = m0, width
-        consts = Constants(k, BACKSCATTER_FLOATS)
+        constants = constants.replace(first=m0, width=width)
         statistics["launches"] += 1
         if packets is not None:
             with order_independent():  # shadow rays and integer packets: any thread count
                 if shared:
-                    visibility = shared_probe(scene, device, sw, consts, found, width,
-                                              len(probe_sweeps), k["blocks"])
+                    visibility = shared_probe(scene, scatterers, sweep_arrays, constants,
+                                              found, width, len(probe_sweeps), block_count)
                     statistics["visibility_rays"] += width * len(probe_sweeps)
                 else:
-                    visibility = probe(scene, device, sw, consts, found, width, k["blocks"])
+                    visibility = probe(scene, scatterers, sweep_arrays, constants, found,
+                                       width, block_count)
                     statistics["visibility_rays"] += width * int(
                         np.sum(np.minimum(block_sizes, 2)))
                 dr.eval(visibility)
-                first, end, irregular = deposit_runs(sw, consts, visibility, width)
+                first, end, irregular = deposit_runs(sweep_arrays.blocks, constants,
+                                                     visibility, width)
                 dr.eval(first, end, irregular)
                 runs = None if dr.any(irregular)[0] else (first, end)
-                contributions = block_trace(device, sw, consts, found, visibility, width,
-                                            packets, uniform, polynomial, units, runs)
+                contributions = block_trace(scatterers, sweep_arrays, constants, found,
+                                            visibility, width, packets, uniform, polynomial,
+                                            units, runs)
                 dr.eval(packets, contributions)
                 # Every contribution is counted by the block kernel, the split pairs' too.
                 statistics["shadow_rays"] += int(dr.sum(contributions)[0])
                 split = dr.compress(visibility == 1)  # in order: any thread count
             statistics["visibility_split"] += dr.width(split)
             if dr.width(split):
-                split_trace(scene, device, sw, consts, found, split, len(chosen), re, im)
+                split_trace(scene, scatterers, sweep_arrays, constants, found, split,
+                            len(chosen), re, im)
             dr.eval(re, im)
             continue
-        lanes = cull(device, sw, consts, found, len(chosen) * width)
+        lanes = cull(scatterers, sweep_arrays, constants, found, len(chosen) * width)
         statistics["shadow_rays"] += dr.width(lanes)
         if dr.width(lanes):
             visibility = None
             if reuse:
-                visibility = probe(scene, device, sw, consts, found, width, k["blocks"])
+                visibility = probe(scene, scatterers, sweep_arrays, constants, found, width,
+                                   block_count)
                 dr.eval(visibility)
                 statistics["visibility_rays"] += width * int(np.sum(np.minimum(block_sizes,
                                                                                2)))
                 statistics["visibility_split"] += int(dr.count(visibility == 1)[0])
-            trace(scene, device, sw, consts, found, lanes, re, im, visibility)
+            trace(scene, scatterers, sweep_arrays, constants, found, lanes, re, im, visibility)
         dr.eval(re, im)
     if packets is not None:
         with order_independent():  # one add per bin (no conflicts): any thread count
-            add_packets(packets, Constants(k, BACKSCATTER_FLOATS), len(chosen), k["bin_width"], re,
-                        im, units)
+            add_packets(packets, constants, len(chosen), constants.value("bin_width"), re, im,
+                        units)
             dr.eval(re, im)
 
 
-def _split_lanes(sw: dict, k: Constants, found: Any, split: Any, lanes: Any) -> tuple[Any, Any,
-                                                                                       Any]:
-    """Lane -> (sweep, scatterer, inside its block) for :func:`split_trace`: ``k["sweeps"]``
-    lanes per split pair ``split[lane // sweeps]`` (a :func:`probe` index), the ``j``-th
-    sweep of the pair's block."""
+def _split_lanes(blocks: VisibilityBlocks, constants: Constants, found: Any, split: Any,
+                 lanes: Any) -> tuple[Any, Any, Any]:
+    """Lane -> (sweep, scatterer, inside its block) for :func:`split_trace`:
+    ``constants["sweeps"]`` lanes per split pair ``split[lane // sweeps]`` (a :func:`probe`
+    index), the ``j``-th sweep of the pair's block."""
     u32 = mi.UInt32
-    pair_slot = lanes // k["sweeps"]
-    j = lanes - pair_slot * k["sweeps"]
+    pair_slot = lanes // constants["sweeps"]
+    j = lanes - pair_slot * constants["sweeps"]
     pair = dr.gather(u32, split, pair_slot)
-    local = pair // k["blocks"]
-    block = pair - local * k["blocks"]
-    s = dr.gather(u32, sw["block_first"], block) + j
-    m = dr.gather(u32, found, local + k["first"])
-    return s, m, s <= dr.gather(u32, sw["block_last"], block)
+    local = pair // constants["blocks"]
+    block = pair - local * constants["blocks"]
+    s = dr.gather(u32, blocks.first_sweep, block) + j
+    m = dr.gather(u32, found, local + constants["first"])
+    return s, m, s <= dr.gather(u32, blocks.last_sweep, block)
 
 
-def split_trace(scene: Any, sc: dict, sw: dict, k: Constants, found: Any, split: Any,
-                sweeps: int, re: Any, im: Any) -> int:
+def split_trace(scene: Any, scatterers: ScattererArrays, sweep_arrays: SweepArrays,
+                constants: Constants, found: Any, split: Any, sweeps: int, re: Any, im: Any
+                ) -> int:
     """Trace the sweeps of the (candidate, block) pairs whose block ends disagree (``split``:
     their :func:`probe` indices) as :func:`cull` + :func:`trace` do, a shadow ray per lane
-    in the beam and the bin grid. ``sweeps`` (the chunk's length, ``k["sweeps"]``) lanes per
-    pair bound its block. Returns the number of lanes in the beam and the bin grid."""
+    in the beam and the bin grid. ``sweeps`` (the chunk's length, ``constants["sweeps"]``)
+    lanes per pair bound its block. Returns the number of lanes in the beam and the bin
+    grid."""
     lanes = dr.width(split) * sweeps
     idx = dr.arange(mi.UInt32, lanes)
-    s, m, inside = _split_lanes(sw, k, found, split, idx)
-
-    def gs(name: str) -> Any:
-        return dr.gather(mi.Float, sw[name], s)
-
-    def gm(name: str) -> Any:
-        return dr.gather(mi.Float, sc[name], m)
-
-    kept = dr.compress(inside & _in_beam(k, sc, gs, gm, sw["planar"]))
+    s, m, inside = _split_lanes(sweep_arrays.blocks, constants, found, split, idx)
+    kept = dr.compress(inside & _in_beam(constants, scatterers, sweep_arrays, s, m))
     if dr.width(kept):
-        s, m, _ = _split_lanes(sw, k, found, split, kept)
-        _contribute(scene, sc, sw, k, s, m, mi.Bool(True), None, re, im)
+        s, m, _ = _split_lanes(sweep_arrays.blocks, constants, found, split, kept)
+        _contribute(scene, scatterers, sweep_arrays, constants, s, m, mi.Bool(True), None, re,
+                    im)
     return dr.width(kept)

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import importlib
 import math
+from collections.abc import Callable
 from types import SimpleNamespace
 from typing import Any
 
@@ -27,6 +28,9 @@ from mitsar.plugins.integrators.radar.config import histogram_buffer_length
 from mitsar.plugins.integrators.radar.constants import (
     MAX_HALF_SPAN,
     Constants,
+    ScattererArrays,
+    SweepArrays,
+    VisibilityBlocks,
 )
 from mitsar.plugins.ops import DRJIT_OPS, sincos_turns
 
@@ -50,7 +54,7 @@ _MAGIC_BITS = 0x4338000000000000
 ``round(x)`` for |x| < 2^51."""
 
 
-def fixed_point_scale(sc: dict, k: dict) -> float:
+def fixed_point_scale(scatterers: ScattererArrays, constants: Constants) -> float:
     """Fixed-point units per amplitude unit for the packets of :func:`block_trace`.
 
     Integer sums do not depend on the order of their terms, so the packets sum to the same
@@ -62,19 +66,22 @@ def fixed_point_scale(sc: dict, k: dict) -> float:
     and no less than 5 cm, bounds it. The bound maps to 2^:data:`FIXED_POINT_BITS` units: one
     unit is ~1e-12 of the bound, below the float32 rounding of the deposits themselves.
     """
-    if "sigma_bound" not in sc:  # a property of the scatterer set: reduced once
-        sc["sigma_bound"] = float(dr.max(sc["tables"])[0]) * float(dr.max(sc["weight"])[0])
-    bound = math.sqrt(max(sc["sigma_bound"], 1e-300))
-    if k["normalized"] <= 0.0:
-        nearest = max(0.5 * float(k["first_range"]), 0.05)
-        bound *= float(k["radar_const"]) / nearest**2
+    if scatterers.sigma_bound is None:  # a property of the scatterer set: reduced once
+        scatterers.sigma_bound = (float(dr.max(scatterers.tables)[0])
+                                  * float(dr.max(scatterers.weight)[0]))
+    bound = math.sqrt(max(scatterers.sigma_bound, 1e-300))
+    if constants.value("normalized") <= 0.0:
+        nearest = max(0.5 * float(constants.value("first_range")), 0.05)
+        bound *= float(constants.value("radar_const")) / nearest**2
     return 2.0**FIXED_POINT_BITS / bound
 
 
-def frame_sines(d: Any, get: Any, prefix: str) -> tuple[Any, Any, Any]:
-    """Direction sines of ``d`` in the frame whose entries ``get(prefix + "ij")`` returns."""
-    return tuple(d.x * get(f"{prefix}0{j}") + d.y * get(f"{prefix}1{j}")
-                 + d.z * get(f"{prefix}2{j}") for j in range(3))
+def frame_sines(direction: Any, frame: Callable[[int, int], Any]) -> tuple[Any, Any, Any]:
+    """Direction sines of ``direction`` (a Vector3f, world frame) along the axes of an antenna
+    frame: ``direction . column j`` for ``j`` = 0, 1, 2 (azimuth, elevation, boresight), the
+    entries ``(i, j)`` of the antenna-to-world rotation given by ``frame(i, j)``."""
+    return tuple(direction.x * frame(0, j) + direction.y * frame(1, j)
+                 + direction.z * frame(2, j) for j in range(3))
 
 
 AMPLITUDE_DEGREE = 6
@@ -168,7 +175,8 @@ def beam_sweeps(sines: tuple, steps: tuple, reach_az: Any, reach_el: Any) -> tup
     return lo, hi
 
 
-def deposit_runs(sw: dict, k: Constants, visibility: Any, width: int) -> tuple[Any, Any, Any]:
+def deposit_runs(blocks: VisibilityBlocks, constants: Constants, visibility: Any, width: int
+                 ) -> tuple[Any, Any, Any]:
     """Per candidate of the launch, the sweeps its blocks seen at both ends (probe code 2)
     cover when they are one run: ``(first, end)`` (``first == end``: none), and whether they
     are not (``irregular``: seen blocks separated by hidden or split ones). A launch without
@@ -177,33 +185,35 @@ def deposit_runs(sw: dict, k: Constants, visibility: Any, width: int) -> tuple[A
     local = dr.arange(u32, width)
 
     def body(b: Any, first: Any, end: Any, before: Any, irregular: Any) -> tuple:
-        seen = dr.gather(u32, visibility, local * k["blocks"] + b) == 2
+        seen = dr.gather(u32, visibility, local * constants["blocks"] + b) == 2
         starts = seen & ~before
         irregular |= starts & (end > 0)
-        first = dr.select(starts & (end == 0), dr.gather(u32, sw["block_first"], b), first)
-        end = dr.select(seen, dr.gather(u32, sw["block_last"], b) + 1, end)
+        first = dr.select(starts & (end == 0), dr.gather(u32, blocks.first_sweep, b), first)
+        end = dr.select(seen, dr.gather(u32, blocks.last_sweep, b) + 1, end)
         return b + 1, first, end, seen, irregular
 
     state = (dr.zeros(u32, width), dr.zeros(u32, width), dr.zeros(u32, width),
              dr.full(mi.Bool, False, width), dr.full(mi.Bool, False, width))
-    _, first, end, _, irregular = dr.while_loop(state, lambda b, *rest: b < k["blocks"], body)
+    _, first, end, _, irregular = dr.while_loop(
+        state, lambda b, *rest: b < constants["blocks"], body)
     return first, end, irregular
 
 
-def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, width: int,
+def block_trace(scatterers: ScattererArrays, sweep_arrays: SweepArrays, constants: Constants,
+                found: Any, visibility: Any, width: int,
                 packets: Any, uniform: bool, polynomial: bool, units: float | None,
                 runs: tuple[Any, Any] | None = None) -> Any:
     """Trace every sweep of the chunk for ``width`` candidates: a lane per candidate, a symbolic
     loop over sweeps.
 
-    Lanes are the candidates ``first ..`` of the launch; all run the chunk's ``k["sweeps"]``
+    Lanes are the candidates ``first ..`` of the launch; all run the chunk's ``constants["sweeps"]``
     (<= :data:`MAX_CHUNK_SWEEPS`) sweeps, so the lanes of a SIMD packet share their trip count
     and every sweep datum. ``visibility`` holds the probe codes of the (candidate, block) pairs
     (:func:`~.backscatter.probe` layout): a lane deposits without a shadow ray in the sweeps of
     its blocks seen at both ends (code 2; docs/integrator.md §"Visibility reuse"), given as
     ``runs`` (:func:`deposit_runs`, when every lane's are one run) or else ORed from the sweep
-    bits ``sw["block_bits0/1"]`` into a two-word mask; blocks hidden at both ends (0) deposit
-    nothing, and those whose ends disagree (1) are traced sweep by sweep by
+    bits ``sweep_arrays.blocks.sweep_bits`` into a two-word mask; blocks hidden at both ends
+    (0) deposit nothing, and those whose ends disagree (1) are traced sweep by sweep by
     :func:`~.backscatter.split_trace`.
 
     A lane gathers its scatterer once and evaluates in float64, at the chunk's middle sweep
@@ -250,82 +260,94 @@ def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, w
     f64, f32, u32, i32, u64 = mi.Float64, mi.Float, mi.UInt32, mi.Int32, mi.UInt64
     packet = _packet_type(units is not None)
     local = dr.arange(u32, width)
-    m = dr.gather(u32, found, local + k["first"])
+    m = dr.gather(u32, found, local + constants["first"])
 
     # 1. The sweeps the lane deposits: one run (runs given) or a two-word mask of its blocks
     # seen at both ends.
     if runs is None:
+        bits = sweep_arrays.blocks.sweep_bits
+
         def mask_body(b: Any, seen0: Any, seen1: Any) -> tuple[Any, Any, Any]:
-            seen = dr.gather(u32, visibility, local * k["blocks"] + b) == 2
-            return (b + 1, seen0 | dr.select(seen, dr.gather(u64, sw["block_bits0"], b), 0),
-                    seen1 | dr.select(seen, dr.gather(u64, sw["block_bits1"], b), 0))
+            seen = dr.gather(u32, visibility, local * constants["blocks"] + b) == 2
+            return (b + 1, seen0 | dr.select(seen, dr.gather(u64, bits[0], b), 0),
+                    seen1 | dr.select(seen, dr.gather(u64, bits[1], b), 0))
 
         _, seen0, seen1 = dr.while_loop(
             (dr.zeros(u32, width), dr.zeros(u64, width), dr.zeros(u64, width)),
-            lambda b, seen0, seen1: b < k["blocks"], mask_body)
-    sweeps = k["sweeps"]
+            lambda b, seen0, seen1: b < constants["blocks"], mask_body)
+    sweeps = constants["sweeps"]
     anchor = sweeps // 2
 
     # 2. Once per lane, float64: the scatterer and its geometry at the anchor sweep.
-    q = [dr.gather(f64, sc[f"p{a}"], m) for a in "xyz"]
-    o0 = [qi - dr.gather(f64, sw[f"p{a}"], anchor) for qi, a in zip(q, "xyz", strict=True)]
+    q = [dr.gather(f64, c, m) for c in scatterers.position]
+    o0 = [qi - dr.gather(f64, c, anchor)
+          for qi, c in zip(q, sweep_arrays.position, strict=True)]
     r0 = dr.sqrt(o0[0] * o0[0] + o0[1] * o0[1] + o0[2] * o0[2])
-    cycles0_64 = (hg.deposit_cycles(r0 * (2.0 / SPEED_OF_LIGHT), k, k["rvp"])
-                  + dr.gather(f64, sc["phase"], m))
+    cycles0_64 = (hg.deposit_cycles(r0 * (2.0 / SPEED_OF_LIGHT), constants, constants["rvp"])
+                  + dr.gather(f64, scatterers.phase, m))
     cycles0_64 = cycles0_64 - dr.floor(cycles0_64)
     cycles0 = f32(cycles0_64)
-    position0 = (r0 - k["first_range"]) * k["inv_step"]
+    position0 = (r0 - constants["first_range"]) * constants["inv_step"]
     bin0 = dr.floor(position0)
     fraction0 = f32(position0 - bin0)
     bin0 = i32(bin0)
-    n = mi.Vector3f(*(dr.gather(f32, sc[f"n{a}"], m) for a in "xyz"))
-    weight = dr.gather(f32, sc["weight"], m)
-    offset = f32(dr.gather(u32, sc["row"], m) * TABLE_SIZE)
+    n = mi.Vector3f(*(dr.gather(f32, c, m) for c in scatterers.normal))
+    weight = dr.gather(f32, scatterers.weight, m)
+    offset = f32(dr.gather(u32, scatterers.table_row, m) * TABLE_SIZE)
     r0f = f32(r0)
-    radar32 = SimpleNamespace(carrier_frequency=k.f32("fc"), chirp_rate=k.f32("chirp_rate"))
-    rvp, inv_step = k.f32("rvp"), k.f32("inv_step")
-    doppler = k.f32("fc") / k.f32("chirp_rate")  # apparent range per unit range rate [s]
-    scale = dr.select(k["normalized"] > 0.0, 0.0, k.f32("radar_const"))
-    last_lower = i32(k["last_lower"])
-    beta_az, beta_el = k.f32("beta_az"), k.f32("beta_el")
+    radar32 = SimpleNamespace(carrier_frequency=constants.f32("fc"),
+                              chirp_rate=constants.f32("chirp_rate"))
+    rvp, inv_step = constants.f32("rvp"), constants.f32("inv_step")
+    # apparent range per unit range rate [s]
+    doppler = constants.f32("fc") / constants.f32("chirp_rate")
+    scale = dr.select(constants["normalized"] > 0.0, 0.0, constants.f32("radar_const"))
+    last_lower = i32(constants["last_lower"])
+    beta_az, beta_el = constants.f32("beta_az"), constants.f32("beta_el")
 
     def amplitude(o: Any, frame: Any) -> Any:
         """What :func:`~.backscatter.trace` deposits along ``o`` before the phase: two-way pattern,
         sqrt(σ⁰(θ_i) × area share) and the radar equation's ``1/R^2`` (or 1, normalised)."""
         inv = dr.rsqrt(dr.squared_norm(o))
         d = o * inv
-        u_az, u_el, _ = frame_sines(d, frame, "f")
+        u_az, u_el, _ = frame_sines(d, frame)
         one_way = dr.square(field_pattern(u_az, u_el, beta_az, beta_el, DRJIT_OPS))
-        sigma = interp_theta_table(sc["tables"], TABLE_SIZE, dr.abs(dr.dot(n, d)), DRJIT_OPS,
+        sigma = interp_theta_table(scatterers.tables, TABLE_SIZE, dr.abs(dr.dot(n, d)),
+                                   DRJIT_OPS,
                                    offset=offset) * weight
         return one_way * dr.sqrt(sigma) * dr.select(scale > 0.0, scale * inv * inv, 1.0)
 
     carrier = hg.carrier_cycles_per_metre(radar32)  # [cycles/m]
     if uniform:
         o0f = mi.Vector3f(*(f32(c) for c in o0))
-        step64 = [dr.gather(f64, sw[f"step{a}"], 0) for a in "xyz"]
+        step64 = [dr.gather(f64, c, 0) for c in sweep_arrays.step]
         step = mi.Vector3f(*(f32(c) for c in step64))
         # g: the range's first-order decrease per sweep, o_a.s / R_a [m]; its carrier phase
         # -j g (2 f_c/c) is the exact ramp j (w_hi + w_lo) [cycles], w wrapped to half a turn.
         g64 = (o0[0] * step64[0] + o0[1] * step64[1] + o0[2] * step64[2]) / r0
         lin, g = f32(2.0 * g64 * r0), f32(g64)
-        ramp64 = -g64 * hg.carrier_cycles_per_metre(k)
+        ramp64 = -g64 * hg.carrier_cycles_per_metre(constants)
         ramp64 = ramp64 - dr.round(ramp64)
         ramp_hi = f32(ramp64)
         ramp_lo = f32(ramp64 - f64(ramp_hi))
         quad = dr.squared_norm(step)
-        fixed = {name: dr.gather(f32, sw[name], anchor) for name in _FRAME_NAMES}
-        velocity = mi.Vector3f(*(f32(dr.gather(f64, sw[f"v{a}"], anchor)) for a in "xyz"))
+        fixed_frame = tuple(tuple(dr.gather(f32, entry, anchor) for entry in row)
+                            for row in sweep_arrays.frame)
+
+        def fixed(i: int, j: int) -> Any:
+            return fixed_frame[i][j]
+
+        velocity = mi.Vector3f(*(f32(dr.gather(f64, c, anchor))
+                                 for c in sweep_arrays.velocity))
         # o_j = o_a - j s: the direction sines (unnormalised) and o.v are linear in j.
-        sines0 = frame_sines(o0f, fixed.__getitem__, "f")
-        sines_step = frame_sines(step, fixed.__getitem__, "f")
+        sines0 = frame_sines(o0f, fixed)
+        sines_step = frame_sines(step, fixed)
         along0, along_step = dr.dot(o0f, velocity), dr.dot(step, velocity)
     if polynomial:
         # 5. The amplitude as a polynomial in t = (j - centre) / half over the chunk's sweeps
         # [-anchor, sweeps - 1 - anchor], through its values at the Chebyshev nodes.
         centre = f32(sweeps - 1) * 0.5 - f32(anchor)
         half = dr.maximum(f32(sweeps - 1) * 0.5, 0.5)
-        values = [amplitude(o0f - (centre + half * t) * step, fixed.__getitem__)
+        values = [amplitude(o0f - (centre + half * t) * step, fixed)
                   for t in AMPLITUDE_NODES]
         coefficients = [sum(row[i] * values[i] for i in range(len(values)))
                         for row in _MONOMIAL]
@@ -337,8 +359,8 @@ def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, w
         lit = mi.Bool(True)
     # Constants read once, outside the loop (gathers inside it are not hoisted past the
     # scatter into ``packets``).
-    cull_az, cull_el = k.f32("cull_az"), k.f32("cull_el")
-    bin_lo, window = i32(k["bin_lo"]), i32(k["bin_width"])  # the packets' bins
+    cull_az, cull_el = constants.f32("cull_az"), constants.f32("cull_el")
+    bin_lo, window = i32(constants["bin_lo"]), i32(constants["bin_width"])  # the packets' bins
     first, end = dr.zeros(u32, width), sweeps
     if uniform:
         # 3. The sweeps a lane can be in the beam: the direction sines are linear in j, so each
@@ -383,21 +405,23 @@ def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, w
                 for c in reversed(coefficients[:-1]):
                     amp = dr.fma(amp, t, c)
             else:  # near the antenna: exact per sweep
-                amp = amplitude(o0f - j * step, fixed.__getitem__)
+                amp = amplitude(o0f - j * step, fixed)
         else:
-            o64 = [qi - dr.gather(f64, sw[f"p{a}"], s) for qi, a in zip(q, "xyz", strict=True)]
+            o64 = [qi - dr.gather(f64, c, s)
+                   for qi, c in zip(q, sweep_arrays.position, strict=True)]
             r64 = dr.sqrt(o64[0] * o64[0] + o64[1] * o64[1] + o64[2] * o64[2])
             delta, r = f32(r64 - r0), f32(r64)
-            cycles64 = cycles0_64 + hg.deposit_cycles_change(r64 - r0, r0, k, k["rvp"])
+            cycles64 = cycles0_64 + hg.deposit_cycles_change(r64 - r0, r0, constants,
+                                                             constants["rvp"])
             cycles = f32(cycles64 - dr.floor(cycles64))  # float64: any range change
             o = mi.Vector3f(*(f32(c) for c in o64))
-            v = mi.Vector3f(*(f32(dr.gather(f64, sw[f"v{a}"], s)) for a in "xyz"))
+            v = mi.Vector3f(*(f32(dr.gather(f64, c, s)) for c in sweep_arrays.velocity))
             rdot = -dr.dot(o, v) / r
 
-            def frame(name: str) -> Any:
-                return dr.gather(f32, sw[name], s)
+            def frame(i: int, j: int) -> Any:
+                return dr.gather(f32, sweep_arrays.frame[i][j], s)
 
-            s_az, s_el, s_b = frame_sines(o, frame, "f")
+            s_az, s_el, s_b = frame_sines(o, frame)
             amp = amplitude(o, frame)  # a turning frame moves the pattern: exact per sweep
         # Beam test on the unnormalised direction: |u| < cull <=> |f.o| < cull R.
         in_beam = (s_b > 0.0) & (dr.abs(s_az) < cull_az * r) & (dr.abs(s_el) < cull_el * r)
@@ -427,23 +451,21 @@ def block_trace(sc: dict, sw: dict, k: Constants, found: Any, visibility: Any, w
     return dr.while_loop((first, dr.zeros(u32, width)), lambda s, count: s < end, body)[1]
 
 
-_FRAME_NAMES = tuple(f"f{i}{j}" for i in range(3) for j in range(3))
-
-
-def packet_window(nearest: float, farthest: float, half_span: float, k: dict
+def packet_window(nearest: float, farthest: float, half_span: float, constants: Constants
                   ) -> tuple[int, int]:
     """First bin and number of bins of a chunk's packet rows: the ``lower`` bins a deposit of
     the chunk can have, from the candidates' nearest and farthest range at the middle sweep
     [m], the antenna's largest displacement from it [m] and the Doppler shift of the apparent
-    range (``k["doppler_bins"]``), with two bins of slack for float32 rounding; within
+    range (``doppler_bins``), with two bins of slack for float32 rounding; within
     ``[0, bins - 1)``. The paper's room reaches ~30 % of its bin grid: the packets, their
     per-thread copies and the fold shrink with it."""
-    last = int(k["bins"]) - 1
+    last = int(constants.value("bins")) - 1
     if not nearest <= farthest:  # no candidate
         return 0, 1
-    step = 1.0 / k["inv_step"]
-    lo = math.floor((nearest - half_span - k["first_range"]) / step - k["doppler_bins"]) - 2
-    hi = math.ceil((farthest + half_span - k["first_range"]) / step + k["doppler_bins"]) + 3
+    step = 1.0 / constants.value("inv_step")
+    first_range, doppler_bins = constants.value("first_range"), constants.value("doppler_bins")
+    lo = math.floor((nearest - half_span - first_range) / step - doppler_bins) - 2
+    hi = math.ceil((farthest + half_span - first_range) / step + doppler_bins) + 3
     lo, hi = min(max(lo, 0), last - 1), min(max(hi, 1), last)
     return lo, max(hi - lo, 1)
 
@@ -468,10 +490,10 @@ MIN_PACKET_SWEEPS = 16
 (:data:`PACKET_BUFFER_LIMIT`): about one visibility block at 2 mm per sweep and 3 cm."""
 
 
-def add_packets(packets: Any, k: Constants, sweeps: int, width: int, re: Any, im: Any,
+def add_packets(packets: Any, constants: Constants, sweeps: int, width: int, re: Any, im: Any,
                 units: float | None) -> None:
     """Fold the packets of :func:`block_trace` into the histogram ``re + j im`` (order 0):
-    ``width`` (``k["bin_width"]``) packets per sweep from bin ``k["bin_lo"]``
+    ``width`` (``constants["bin_width"]``) packets per sweep from bin ``constants["bin_lo"]``
     (:func:`packet_window`); bin ``bin_lo + j`` of sweep ``s`` gets the lower half of packet
     ``(s, j)`` and the upper half of packet ``(s, j - 1)`` (no deposit reaches past the last
     bin: ``lower < bins - 1``).
@@ -484,12 +506,12 @@ def add_packets(packets: Any, k: Constants, sweeps: int, width: int, re: Any, im
     u32, f64 = mi.UInt32, mi.Float64
     packet = _packet_type(units is not None)
     idx = dr.arange(u32, sweeps * (width + 1))  # width + 1 histogram bins per packet row
-    row = idx // (k["bin_width"] + 1)
-    j = idx - row * (k["bin_width"] + 1)
-    flat = row * k["bin_width"] + j  # packet (s, j)
-    own = dr.gather(packet, packets, flat, j < k["bin_width"])  # its lower half: bin j
+    row = idx // (constants["bin_width"] + 1)
+    j = idx - row * (constants["bin_width"] + 1)
+    flat = row * constants["bin_width"] + j  # packet (s, j)
+    own = dr.gather(packet, packets, flat, j < constants["bin_width"])  # its lower half: bin j
     below = dr.gather(packet, packets, flat - 1, j > 0)  # packet (s, j - 1): its upper half
-    target = row * k["sweep_stride"] + k["bin_lo"] + j
+    target = row * constants["sweep_stride"] + constants["bin_lo"] + j
     for part, out in ((0, re), (1, im)):
         if units is None:
             value = f64(own[part]) + f64(below[part + 2])

@@ -21,6 +21,8 @@ reflected ray frame and the product of the field factors ``Γ R``. After every r
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from dataclasses import dataclass, fields
 from typing import Any
 
 import drjit as dr
@@ -35,23 +37,76 @@ from mitsar.model.doublelobe import (
     specular_field_table,
 )
 from mitsar.model.geometry.antenna import field_pattern
-from mitsar.model.multipath import capture_weight
-from mitsar.plugins.integrators.radar.constants import Constants, lane_pairs
+from mitsar.model.multipath import RaySet, capture_weight
+from mitsar.plugins.integrators.radar.constants import (
+    Constants,
+    Frame,
+    MultipathSweepArrays,
+    lane_pairs,
+)
 from mitsar.plugins.integrators.radar.deposit import deposit
 from mitsar.plugins.ops import DRJIT_OPS
 
 
-def shape_table(scene: Any, absorbers: tuple[Any, ...] = ()) -> dict:
-    """Per-shape values of the multipath kernel, indexed by Dr.Jit registry id of the shape.
+@dataclass
+class ShapeTable:
+    """Per-shape device arrays of the multipath kernel (:func:`shape_table`); the per-shape
+    ones are indexed by the Dr.Jit registry id of the shape.
 
-    ``rho``: stacked θ-tables of the specular field factor ``Γ(θ_i) R``
-    (:func:`mitsar.model.doublelobe.specular_field_table`), row ``srow`` of the shape (row 0 is
-    zero: the ray stops: absorbers, point-target markers, other BSDFs, and the shapes in
-    ``absorbers``, whose specular returns physical optics gives, docs/physical_optics.md §5);
-    ``gscale``: 1 where
-    ghosts may scatter (double-lobe materials); ``grow``: row of the ghost tables ``wb``,
-    ``wf``, ``ab``, ``af`` (:func:`mitsar.model.doublelobe.bistatic_lobe_tables`).
+    Attributes
+    ----------
+    specular_field : mi.Float
+        Stacked θ-tables of the specular field factor ``Γ(θ_i) R``
+        (:func:`mitsar.model.doublelobe.specular_field_table`), flattened.
+    specular_row : mi.UInt32
+        Per shape, its row of ``specular_field``; row 0 is zero: the ray stops (absorbers,
+        point-target markers, other BSDFs, and the shapes whose specular returns physical
+        optics gives, docs/physical_optics.md §5).
+    ghost_scale : mi.Float
+        Per shape, 1 where ghosts may scatter (double-lobe materials), else 0.
+    ghost_row : mi.UInt32
+        Per shape, its row of the ghost tables.
+    backscatter_weight, forward_weight : mi.Float
+        Stacked θ-tables ``4π Γ² S² w_B,F(θ_i)`` [1/sr] of the backscatter and specular lobes
+        (:func:`mitsar.model.doublelobe.bistatic_lobe_tables`), flattened.
+    backscatter_exponent, forward_exponent : mi.Float
+        Per row, the lobe exponents ``α_B``, ``α_F``.
     """
+
+    specular_field: Any
+    specular_row: Any
+    ghost_scale: Any
+    ghost_row: Any
+    backscatter_weight: Any
+    forward_weight: Any
+    backscatter_exponent: Any
+    forward_exponent: Any
+
+
+@dataclass
+class RayArrays:
+    """The multipath ray grid (:class:`~mitsar.model.multipath.RaySet`) as device arrays.
+
+    Attributes
+    ----------
+    sine_p, sine_q : mi.Float
+        Direction sines of each launch direction along the ray frame's axes 0 and 1.
+    """
+
+    sine_p: Any
+    sine_q: Any
+
+
+def ray_arrays(rays: RaySet) -> tuple[RayArrays, Any]:
+    """The ray grid's device arrays and the ray indices ``0 .. len(rays) - 1`` (UInt32)."""
+    arrays = RayArrays(sine_p=mi.Float(rays.p), sine_q=mi.Float(rays.q))
+    ids = mi.UInt32(np.arange(len(rays), dtype=np.uint32))
+    dr.make_opaque(arrays.sine_p, arrays.sine_q, ids)
+    return arrays, ids
+
+
+def shape_table(scene: Any, absorbers: tuple[Any, ...] = ()) -> ShapeTable:
+    """The :class:`ShapeTable` of a scene; the shapes in ``absorbers`` stop multipath rays."""
     shapes = list(scene.shapes())
     ids = [int(dr.reinterpret_array(mi.UInt32, mi.ShapePtr(shape))[0]) for shape in shapes]
     stops = {int(dr.reinterpret_array(mi.UInt32, mi.ShapePtr(shape))[0]) for shape in absorbers}
@@ -79,57 +134,67 @@ def shape_table(scene: Any, absorbers: tuple[Any, ...] = ()) -> dict:
     wb, wf, ab, af = bistatic_lobe_tables(rows, TABLE_SIZE)
     f32 = mi.Float
     rho = specular_field_table(specular, TABLE_SIZE)
-    out = {"rho": f32(rho.ravel()), "srow": mi.UInt32(srow), "gscale": f32(gscale),
-           "grow": mi.UInt32(grow),
-           "wb": f32(wb.ravel()), "wf": f32(wf.ravel()), "ab": f32(ab), "af": f32(af)}
-    dr.make_opaque(*out.values())
-    return out
+    table = ShapeTable(specular_field=f32(rho.ravel()), specular_row=mi.UInt32(srow),
+                       ghost_scale=f32(gscale), ghost_row=mi.UInt32(grow),
+                       backscatter_weight=f32(wb.ravel()), forward_weight=f32(wf.ravel()),
+                       backscatter_exponent=f32(ab), forward_exponent=f32(af))
+    dr.make_opaque(*(getattr(table, field.name) for field in fields(table)))
+    return table
 
 
-def _column(get: Any, prefix: str, j: int) -> Any:
-    return mi.Vector3f(get(f"{prefix}0{j}"), get(f"{prefix}1{j}"), get(f"{prefix}2{j}"))
+def _column(frame: Frame, j: int, at_sweep: Callable[[Any], Any]) -> Any:
+    """Column ``j`` of a per-sweep rotation (an antenna or ray axis, world frame), each entry
+    gathered by ``at_sweep``."""
+    return mi.Vector3f(at_sweep(frame[0][j]), at_sweep(frame[1][j]), at_sweep(frame[2][j]))
 
 
-def _field_pattern(direction: Any, az: Any, el: Any, k: Constants) -> Any:
+def _field_pattern(direction: Any, az: Any, el: Any, constants: Constants) -> Any:
     """One-way field pattern of ``direction`` for the antenna axes ``az``, ``el``."""
-    return field_pattern(dr.dot(direction, az), dr.dot(direction, el), k.f32("beta_az"),
-                         k.f32("beta_el"), DRJIT_OPS)
+    return field_pattern(dr.dot(direction, az), dr.dot(direction, el), constants.f32("beta_az"),
+                         constants.f32("beta_el"), DRJIT_OPS)
 
 
-def _order_base(k: Constants, s: Any, order: int) -> Any:
-    return s * k["sweep_stride"] + k["bins"] * order
+def _order_base(constants: Constants, sweep: Any, order: int) -> Any:
+    return sweep * constants["sweep_stride"] + constants["bins"] * order
 
 
-def capture_deposit(k: Constants, re: Any, im: Any, sw: dict, chosen: Any, s_all: Any,
-                    img_all: list, frame_all: tuple, field_all: Any, amp_tx_all: Any,
-                    weight_all: Any, order: int) -> None:
+def capture_deposit(constants: Constants, re: Any, im: Any, sweep_arrays: MultipathSweepArrays,
+                    chosen: Any, s_all: Any, img_all: list, frame_all: tuple, field_all: Any,
+                    amp_tx_all: Any, weight_all: Any, order: int) -> None:
     """Deposit the captured lanes ``chosen``: image-method amplitude (capture-weighted), delay
     ``L/c`` with ``L = |rx - img|`` in float64, Doppler of the image geometry."""
     f64, f32 = mi.Float64, mi.Float
     s = dr.gather(mi.UInt32, s_all, chosen)
 
-    def gs(name: str, kind: type = f32) -> Any:
-        return dr.gather(kind, sw[name], s)
+    def gs(array: Any, kind: type = f32) -> Any:
+        return dr.gather(kind, array, s)
 
     def gl(values: Any, kind: type = f32) -> Any:
         return dr.gather(kind, values, chosen)
 
     img = [gl(c, f64) for c in img_all]
     e0, e1, e2 = (mi.Vector3f(gl(e.x), gl(e.y), gl(e.z)) for e in frame_all)
-    wx, wy, wz = gs("qx", f64) - img[0], gs("qy", f64) - img[1], gs("qz", f64) - img[2]
+    receiver = sweep_arrays.receiver
+    wx, wy, wz = (gs(receiver[0], f64) - img[0], gs(receiver[1], f64) - img[1],
+                  gs(receiver[2], f64) - img[2])
     length = dr.sqrt(wx * wx + wy * wy + wz * wz)
     inv = 1.0 / length
     wn = mi.Vector3f(f32(wx * inv), f32(wy * inv), f32(wz * inv))
-    amp_rx = _field_pattern(-wn, _column(gs, "g", 0), _column(gs, "g", 1), k)
-    scale = dr.select(k["normalized"] > 0.0, k["norm_const"] * length, k["amp_const"] * inv)
+    amp_rx = _field_pattern(-wn, _column(sweep_arrays.receiver_frame, 0, gs),
+                            _column(sweep_arrays.receiver_frame, 1, gs), constants)
+    scale = dr.select(constants["normalized"] > 0.0, constants["norm_const"] * length,
+                      constants["amp_const"] * inv)
     amp = f32(scale) * gl(weight_all) * gl(field_all) * gl(amp_tx_all) * amp_rx
-    v_img = e0 * gs("va0") + e1 * gs("va1") + e2 * gs("va2")
-    rate = dr.dot(wn, mi.Vector3f(gs("vx"), gs("vy"), gs("vz")) - v_img)
-    deposit(k, re, im, _order_base(k, s, order), 0.5 * length, 0.5 * f64(rate), amp, None,
+    va = sweep_arrays.ray_velocity
+    v_img = e0 * gs(va[0]) + e1 * gs(va[1]) + e2 * gs(va[2])
+    velocity = sweep_arrays.velocity
+    rate = dr.dot(wn, mi.Vector3f(gs(velocity[0]), gs(velocity[1]), gs(velocity[2])) - v_img)
+    deposit(constants, re, im, _order_base(constants, s, order), 0.5 * length, 0.5 * f64(rate),
+            amp, None,
             dr.full(mi.Bool, True, dr.width(chosen)))
 
 
-def ghost_deposit(scene: Any, table: dict, k: Constants, re: Any, im: Any, s: Any,
+def ghost_deposit(scene: Any, table: ShapeTable, constants: Constants, re: Any, im: Any, s: Any,
                   order: int, si: Any, sid: Any, n: Any, d: Any, hit: Any, img: list,
                   rx32: Any, v_rx: Any, v_img: Any, g_axes: tuple, field: Any, amp_tx: Any,
                   z: Any, planar: bool) -> None:
@@ -147,16 +212,17 @@ def ghost_deposit(scene: Any, table: dict, k: Constants, re: Any, im: Any, s: An
     ks = to_rx / r_r
     cos_i = -dr.dot(d, n)
     cos_s = dr.dot(ks, n)
-    gscale = dr.gather(f32, table["gscale"], sid)
+    gscale = dr.gather(f32, table.ghost_scale, sid)
     ok = hit & (cos_i * cos_s > 0.0) & (gscale > 0.0)
     # Table lookups gather without a mask: keep the index finite on every lane.
     cos_i = dr.select(ok, dr.minimum(dr.abs(cos_i), 1.0), 1.0)
     mirror = d - 2.0 * dr.dot(d, n) * n
-    row = dr.gather(u32, table["grow"], sid)
+    row = dr.gather(u32, table.ghost_row, sid)
     offset = f32(row * TABLE_SIZE)
-    wb = interp_theta_table(table["wb"], TABLE_SIZE, cos_i, DRJIT_OPS, offset)
-    wf = interp_theta_table(table["wf"], TABLE_SIZE, cos_i, DRJIT_OPS, offset)
-    ab, af = dr.gather(f32, table["ab"], row), dr.gather(f32, table["af"], row)
+    wb = interp_theta_table(table.backscatter_weight, TABLE_SIZE, cos_i, DRJIT_OPS, offset)
+    wf = interp_theta_table(table.forward_weight, TABLE_SIZE, cos_i, DRJIT_OPS, offset)
+    ab = dr.gather(f32, table.backscatter_exponent, row)
+    af = dr.gather(f32, table.forward_exponent, row)
     f_term = double_lobe_pattern(-dr.dot(ks, d), dr.dot(ks, mirror), wb, wf, ab, af, DRJIT_OPS)
     arrival = -ks
     ok &= (dr.dot(arrival, g_b) > 0.0) & (f_term > 0.0)
@@ -164,23 +230,25 @@ def ghost_deposit(scene: Any, table: dict, k: Constants, re: Any, im: Any, s: An
     hx, hy, hz = f64(h.x) - img[0], f64(h.y) - img[1], f64(h.z) - img[2]
     s_len = dr.sqrt(hx * hx + hy * hy + hz * hz)
     if planar:
-        solid = k.f32("dq") * k.f32("slab_width") / f32(s_len)
+        solid = constants.f32("dq") * constants.f32("slab_width") / f32(s_len)
     else:
-        solid = k.f32("dp") * k.f32("dq") / z
-    amp_rx = _field_pattern(arrival, g_az, g_el, k)
+        solid = constants.f32("dp") * constants.f32("dq") / z
+    amp_rx = _field_pattern(arrival, g_az, g_el, constants)
     length = s_len + f64(r_r)
     x_amp = amp_tx * field * amp_rx * dr.sqrt(solid * f_term / (4.0 * math.pi)) / r_r
-    scale = dr.select(k["normalized"] > 0.0,
-                      math.sqrt(4.0 * math.pi) * dr.square(0.5 * length), k["amp_const"])
+    scale = dr.select(constants["normalized"] > 0.0,
+                      math.sqrt(4.0 * math.pi) * dr.square(0.5 * length),
+                      constants["amp_const"])
     rate = dr.dot(ks, v_rx) - dr.dot(d, v_img)
-    cell = k.f32("ghost_cell_inv")
+    cell = constants.f32("ghost_cell_inv")
     ix, iy, iz = (u32(mi.Int32(dr.floor(c * cell))) for c in (h.x, h.y, h.z))
     speckle = mi.sample_tea_float32((ix * 73856093) ^ (iy * 19349663), (iz * 83492791) ^ sid)
-    deposit(k, re, im, _order_base(k, s, order), 0.5 * length, 0.5 * f64(rate),
+    deposit(constants, re, im, _order_base(constants, s, order), 0.5 * length, 0.5 * f64(rate),
             f32(scale) * x_amp, speckle, ok)
 
 
-def launch(scene: Any, table: dict, rays: dict, sw: dict, k: Constants, ray_ids: Any,
+def launch(scene: Any, table: ShapeTable, rays: RayArrays, sweep_arrays: MultipathSweepArrays,
+           constants: Constants, ray_ids: Any,
            lanes: int, re: Any, im: Any, depth: int, capture: str, ghosts: bool, planar: bool,
            log: list | None = None, stats: dict | None = None) -> None:
     """Shoot ``lanes`` rays (ray x sweep lanes) through up to ``depth`` hits and deposit.
@@ -190,24 +258,27 @@ def launch(scene: Any, table: dict, rays: dict, sw: dict, k: Constants, ray_ids:
     ``stats`` counts ``segments`` and ``captures``.
     """
     f64, f32, u32 = mi.Float64, mi.Float, mi.UInt32
-    s, i = lane_pairs(dr.arange(u32, lanes), k, ray_ids)
+    s, i = lane_pairs(dr.arange(u32, lanes), constants, ray_ids)
 
-    def gs(name: str, kind: type = f32) -> Any:
-        return dr.gather(kind, sw[name], s)
+    def gs(array: Any, kind: type = f32) -> Any:
+        return dr.gather(kind, array, s)
 
-    p = dr.gather(f32, rays["p"], i)
-    q = dr.gather(f32, rays["q"], i)
+    p = dr.gather(f32, rays.sine_p, i)
+    q = dr.gather(f32, rays.sine_q, i)
     z = dr.safe_sqrt(1.0 - p * p - q * q)
-    e0, e1, e2 = _column(gs, "r", 0), _column(gs, "r", 1), _column(gs, "r", 2)
+    ray_frame, antenna_frame = sweep_arrays.ray_frame, sweep_arrays.antenna_frame
+    e0, e1, e2 = (_column(ray_frame, 0, gs), _column(ray_frame, 1, gs),
+                  _column(ray_frame, 2, gs))
     d = dr.normalize(e0 * p + e1 * q + e2 * z)
-    amp_tx = _field_pattern(d, _column(gs, "f", 0), _column(gs, "f", 1), k)
+    amp_tx = _field_pattern(d, _column(antenna_frame, 0, gs), _column(antenna_frame, 1, gs),
+                            constants)
     dr.eval(amp_tx, s, p, q, z)
-    g_axes = (_column(gs, "g", 0), _column(gs, "g", 1), _column(gs, "g", 2))
-    rx32 = mi.Point3f(gs("qx32"), gs("qy32"), gs("qz32"))
-    v_rx = mi.Vector3f(gs("vx"), gs("vy"), gs("vz"))
-    va0, va1, va2 = gs("va0"), gs("va1"), gs("va2")
-    img = [gs("px", f64), gs("py", f64), gs("pz", f64)]
-    o = mi.Point3f(gs("px32"), gs("py32"), gs("pz32"))
+    g_axes = tuple(_column(sweep_arrays.receiver_frame, j, gs) for j in range(3))
+    rx32 = mi.Point3f(*(gs(c) for c in sweep_arrays.receiver32))
+    v_rx = mi.Vector3f(*(gs(c) for c in sweep_arrays.velocity))
+    va0, va1, va2 = (gs(c) for c in sweep_arrays.ray_velocity)
+    img = [gs(c, f64) for c in sweep_arrays.transmitter]
+    o = mi.Point3f(*(gs(c) for c in sweep_arrays.transmitter32))
     field = dr.full(f32, 1.0, lanes)
     alive = z > 0.0
     counts = dr.zeros(u32, lanes)  # segments + 2^16 x captures of the lane (work counters)
@@ -226,14 +297,17 @@ def launch(scene: Any, table: dict, rays: dict, sw: dict, k: Constants, ray_ids:
             t_r = dr.dot(rx32 - o, d)
             ok = (alive & (dr.dot(wn, e2) > 0.0) & (t_r > 0.0) & (t_r < t_hit)
                   & (dr.dot(wn, g_axes[2]) < 0.0))
-            weight = (capture_weight(dr.dot(wn, e0) - p, k.f32("dp"), capture, DRJIT_OPS)
-                      * capture_weight(dr.dot(wn, e1) - q, k.f32("dq"), capture, DRJIT_OPS))
+            weight = (capture_weight(dr.dot(wn, e0) - p, constants.f32("dp"), capture,
+                                     DRJIT_OPS)
+                      * capture_weight(dr.dot(wn, e1) - q, constants.f32("dq"), capture,
+                                       DRJIT_OPS))
             ok &= weight > 0.0
             weight = dr.select(ok, weight, 0.0)
             dr.eval(weight)
             chosen = dr.compress(weight > 0.0)
             if dr.width(chosen):
-                capture_deposit(k, re, im, sw, chosen, s, img, (e0, e1, e2), field, amp_tx,
+                capture_deposit(constants, re, im, sweep_arrays, chosen, s, img, (e0, e1, e2),
+                                field, amp_tx,
                                 weight, kk)
             counts = counts + dr.select(ok, 65536, 0)
         if log is not None:
@@ -254,7 +328,8 @@ def launch(scene: Any, table: dict, rays: dict, sw: dict, k: Constants, ray_ids:
         n = dr.normalize(si.n)
         if ghosts and kk >= 1:
             # 2. Ghosts: bistatic scattering of the hit back to the receiver.
-            ghost_deposit(scene, table, k, re, im, s, kk, si, sid, n, d, hit, img, rx32, v_rx,
+            ghost_deposit(scene, table, constants, re, im, s, kk, si, sid, n, d, hit, img, rx32,
+                          v_rx,
                           v_img, g_axes, field, amp_tx, z, planar)
         if last:
             dr.eval(counts)
@@ -262,8 +337,8 @@ def launch(scene: Any, table: dict, rays: dict, sw: dict, k: Constants, ray_ids:
         # 3. Specular reflection (paper eq. 5): direction, frame, image (float64), field factor.
         # The table lookup gathers without a mask: keep the index finite on every lane.
         cos_i = dr.select(hit, dr.minimum(dr.abs(dr.dot(d, n)), 1.0), 1.0)
-        row = f32(dr.gather(u32, table["srow"], sid) * TABLE_SIZE)
-        rho = interp_theta_table(table["rho"], TABLE_SIZE, cos_i, DRJIT_OPS, row)
+        row = f32(dr.gather(u32, table.specular_row, sid) * TABLE_SIZE)
+        rho = interp_theta_table(table.specular_field, TABLE_SIZE, cos_i, DRJIT_OPS, row)
         nx, ny, nz = f64(n.x), f64(n.y), f64(n.z)
         off = ((img[0] - f64(si.p.x)) * nx + (img[1] - f64(si.p.y)) * ny
                + (img[2] - f64(si.p.z)) * nz)

@@ -1,14 +1,18 @@
 """What a kernel launch reads: packed scalar constants and per-sweep device arrays.
 
 Every per-acquisition value (radar constants, bin grid, chunk offsets) reaches the kernels as an
-element of a padded opaque device array, and every per-sweep or per-scatterer value as a device
-array, so each kernel is traced and compiled once and reused from Dr.Jit's cache for every chunk,
-acquisition and trajectory (docs/integrator.md, "Compiled once").
+element of a padded opaque device array (:class:`Constants`), and every per-sweep or
+per-scatterer value as a device array, held by one type each (:class:`ScattererArrays`,
+:class:`SweepArrays` with its :class:`VisibilityBlocks` and :class:`SharedProbes`,
+:class:`MultipathSweepArrays`), so each kernel is traced and compiled once and reused from
+Dr.Jit's cache for every chunk, acquisition and trajectory (docs/integrator.md, "Compiled once").
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import Any
 
 import drjit as dr
@@ -16,6 +20,7 @@ import mitsuba as mi
 import numpy as np
 from numpy.typing import NDArray
 
+from mitsar.model.geometry.sweeps import SweepGeometry
 from mitsar.model.multipath import RaySet, multipath_amplitude_constant
 from mitsar.model.radar import Radar
 from mitsar.model.signal import radar_equation_amplitude
@@ -48,10 +53,23 @@ scalars recompile)."""
 class Constants:
     """Per-launch scalars packed in two device arrays, read with literal-index gathers.
 
-    ``k["name"]`` is a Float64 (or UInt32) of width 1; ``k.f32("name")`` its Float32 value.
+    The one type of a kernel launch's constants (backscatter and multipath alike): built from
+    Python values, packed once, and never changed; :meth:`replace` gives the constants of the
+    next chunk or launch. ``constants["name"]`` is a Float64 (or UInt32) of width 1 for the
+    kernels, ``constants.f32("name")`` its Float32 value, ``constants.value("name")`` the
+    Python number it was packed from (for the host side: packet windows, fixed-point scale).
+
+    Parameters
+    ----------
+    values : mapping of str to float or int
+        At least every name of ``floats`` and :data:`UINTS` (SI units).
+    floats : tuple of str
+        The Float64 names of the kernel (:data:`BACKSCATTER_FLOATS`,
+        :data:`MULTIPATH_FLOATS`); their order is their index in the packed array.
     """
 
-    def __init__(self, values: dict, floats: tuple[str, ...]) -> None:
+    def __init__(self, values: Mapping[str, float], floats: tuple[str, ...]) -> None:
+        self._values = dict(values)
         self._floats = floats
         packed = np.zeros(PACK)
         packed_u = np.zeros(PACK, dtype=np.uint32)
@@ -69,7 +87,22 @@ class Constants:
         return dr.gather(mi.Float64, self._f, self._floats.index(name))
 
     def f32(self, name: str) -> Any:
+        """The Float32 value of ``name`` (width 1)."""
         return mi.Float(self[name])
+
+    def value(self, name: str) -> Any:
+        """The Python number ``name`` was packed from (host side, no device read)."""
+        return self._values[name]
+
+    @property
+    def values(self) -> dict[str, Any]:
+        """A copy of every packed value by name."""
+        return dict(self._values)
+
+    def replace(self, **changes: Any) -> Constants:
+        """These constants with ``changes`` (names of this kernel's floats or :data:`UINTS`),
+        packed anew."""
+        return Constants({**self._values, **changes}, self._floats)
 
     @property
     def carrier_frequency(self) -> Any:
@@ -84,8 +117,9 @@ class Constants:
 
 def backscatter_constants(radar: Radar, config: TraceOptions, grid: tuple[int, int],
                           step: float, orders: int, rvp: bool, normalized: bool,
-                          max_speed: float, planar: bool) -> dict:
-    """Constants of an acquisition for :data:`BACKSCATTER_FLOATS` (chunk values added later).
+                          max_speed: float, planar: bool) -> Constants:
+    """Constants of an acquisition for :data:`BACKSCATTER_FLOATS` (chunk values replaced per
+    chunk and launch).
 
     Parameters
     ----------
@@ -96,7 +130,10 @@ def backscatter_constants(radar: Radar, config: TraceOptions, grid: tuple[int, i
     """
     first_index, bins = grid
     cull = min(float(config.beam_cull), 1e30)
-    return {
+    chunk = dict.fromkeys((name for name in BACKSCATTER_FLOATS if name.startswith("mid_")),
+                          0.0)  # the chunk's middle sweep: replaced per chunk (chunk_bounds)
+    return Constants({
+        **chunk,
         "fc": radar.carrier_frequency,
         "chirp_rate": radar.chirp_rate,
         "first_range": first_index * step,
@@ -119,73 +156,242 @@ def backscatter_constants(radar: Radar, config: TraceOptions, grid: tuple[int, i
         "width": 0,
         "bin_lo": 0,
         "bin_width": bins,
-    }
+    }, BACKSCATTER_FLOATS)
 
 
-def multipath_constants(radar: Radar, config: TraceOptions, k: dict,
-                        rays: RaySet) -> dict:
+def multipath_constants(radar: Radar, config: TraceOptions, backscatter: Constants,
+                        rays: RaySet) -> Constants:
     """Constants of the multipath kernel (:data:`MULTIPATH_FLOATS`) from those of
     :func:`backscatter_constants`."""
-    out = {name: k[name] for name in set(MULTIPATH_FLOATS + UINTS) & set(k)}
+    shared = backscatter.values
+    out = {name: shared[name] for name in set(MULTIPATH_FLOATS + UINTS) & set(shared)}
     out.update(amp_const=multipath_amplitude_constant(radar),
                norm_const=0.5 * math.sqrt(math.pi), dp=rays.dp, dq=rays.dq,
                slab_width=float(config.slab_width), ghost_cell_inv=2.0 / radar.wavelength,
                first=0, sweeps=1, blocks=1)
-    return out
+    return Constants(out, MULTIPATH_FLOATS)
 
 
-def lane_pairs(idx: Any, k: Constants, candidates: Any) -> tuple[Any, Any]:
-    """Lane index -> (sweep of the chunk, item): sweep ``idx % sweeps`` and the candidate
-    ``first + idx // sweeps`` (a scatterer or a ray). Neighbouring lanes belong to different
+def lane_pairs(lane: Any, constants: Constants, candidates: Any) -> tuple[Any, Any]:
+    """Lane index -> (sweep of the chunk, item): sweep ``lane % sweeps`` and the candidate
+    ``first + lane // sweeps`` (a scatterer or a ray). Neighbouring lanes belong to different
     sweeps, so their deposits go to different histograms (neighbouring scatterers of one sweep
     would fight over the same bins in the atomic scatter-add)."""
-    local = idx // k["sweeps"]
-    return idx - local * k["sweeps"], dr.gather(mi.UInt32, candidates, local + k["first"])
+    local = lane // constants["sweeps"]
+    return (lane - local * constants["sweeps"],
+            dr.gather(mi.UInt32, candidates, local + constants["first"]))
+
+
+Vector = tuple[Any, Any, Any]
+"""x, y, z components of a vector per item, one device array each."""
+
+Frame = tuple[Vector, Vector, Vector]
+"""A rotation per item, entry ``(i, j)`` at ``frame[i][j]`` (column ``j``: an antenna axis in
+world coordinates), one Float32 device array each."""
+
+
+@dataclass
+class ScattererArrays:
+    """Device arrays of a scatterer set (:class:`~mitsar.scene.scatterers.ScattererSet`), one
+    element per scatterer; uploaded once (:func:`scatterer_arrays`).
+
+    Attributes
+    ----------
+    position, position32 : Vector
+        Position at time 0 [m], Float64 and Float32.
+    velocity, velocity32 : Vector
+        Velocity [m/s], Float64 and Float32.
+    normal : Vector
+        Unit surface normal (Float32).
+    weight : mi.Float
+        Area share [m²] (surfaces) or RCS [m²] (point targets) multiplying σ⁰.
+    phase : mi.Float64
+        Frozen speckle phase [cycles].
+    table_row : mi.UInt32
+        Row of the scatterer's material in ``tables``.
+    stop : mi.Float
+        How far short of the scatterer its shadow ray stops [m].
+    tables : mi.Float
+        Monostatic σ⁰ tables of the materials, rows of
+        :data:`~mitsar.model.doublelobe.TABLE_SIZE`, flattened.
+    static : bool
+        No scatterer moves: kernels without the velocity gathers (compiled once).
+    sigma_bound : float or None
+        Largest σ⁰ table value times the largest weight [m²], reduced once on demand
+        (:func:`~.blocks.fixed_point_scale`).
+    """
+
+    position: Vector
+    position32: Vector
+    velocity: Vector
+    velocity32: Vector
+    normal: Vector
+    weight: Any
+    phase: Any
+    table_row: Any
+    stop: Any
+    tables: Any
+    static: bool
+    sigma_bound: float | None = None
+
+    @property
+    def count(self) -> int:
+        """Number of scatterers."""
+        return dr.width(self.weight)
+
+
+@dataclass
+class VisibilityBlocks:
+    """Device arrays of the visibility blocks of a chunk (docs/integrator.md §"Visibility
+    reuse"; :func:`visibility_block_arrays`).
+
+    Attributes
+    ----------
+    block_of : mi.UInt32
+        Block of each sweep of the chunk.
+    first_sweep, last_sweep : mi.UInt32
+        First and last sweep of each block (indices into the chunk).
+    sweep_bits : (mi.UInt64, mi.UInt64) or None
+        Per block, bit ``s`` of word ``s // 64`` set for each sweep ``s`` of the block (the
+        sweep masks of :func:`~.blocks.block_trace`); None for chunks over
+        :data:`MAX_CHUNK_SWEEPS` sweeps.
+    """
+
+    block_of: Any
+    first_sweep: Any
+    last_sweep: Any
+    sweep_bits: tuple[Any, Any] | None
+
+
+@dataclass
+class SharedProbes:
+    """Device arrays of the shared visibility probes of a chunk (:func:`shared_probe_arrays`).
+
+    Attributes
+    ----------
+    sweep : mi.UInt32
+        The chunk's probed sweeps.
+    first, end : mi.UInt32
+        Per block, the indices into ``sweep`` of the probes at its first sweep and at its end
+        (the next block's first; :func:`~mitsar.model.geometry.visibility.shared_probe_sweeps`).
+    """
+
+    sweep: Any
+    first: Any
+    end: Any
+
+
+@dataclass
+class SweepArrays:
+    """Per-sweep device arrays of a chunk for the backscatter kernels (padded to
+    :data:`PACK`; :func:`backscatter_sweep_arrays`).
+
+    Attributes
+    ----------
+    time, time32 : mi.Float64, mi.Float
+        Mid-sweep time [s].
+    position, position32 : Vector
+        Antenna position at mid-sweep [m], Float64 and Float32.
+    velocity : Vector
+        Antenna velocity [m/s] (Float64).
+    plane_normal : Vector
+        2D mode: the normal of the plane (Float32; zeros in 3D).
+    frame : Frame
+        Antenna-to-world rotation at mid-sweep.
+    planar : bool
+        2D mode (a kernel variant with the slab test).
+    blocks : VisibilityBlocks or None
+        The chunk's visibility blocks, when shadow rays are shared.
+    probes : SharedProbes or None
+        The chunk's shared probes (block kernel).
+    step : Vector or None
+        Antenna step per sweep over the chunk [m] (Float64, width 1; block kernel,
+        :func:`chunk_step_arrays`).
+    """
+
+    time: Any
+    time32: Any
+    position: Vector
+    position32: Vector
+    velocity: Vector
+    plane_normal: Vector
+    frame: Frame
+    planar: bool
+    blocks: VisibilityBlocks | None = None
+    probes: SharedProbes | None = None
+    step: Vector | None = None
+
+
+@dataclass
+class MultipathSweepArrays:
+    """Per-sweep device arrays of a chunk for the multipath kernel (padded to :data:`PACK`;
+    :func:`multipath_sweep_arrays`).
+
+    Attributes
+    ----------
+    transmitter, transmitter32 : Vector
+        Transmitter position at mid-sweep [m], Float64 and Float32.
+    receiver, receiver32 : Vector
+        Receiver position [m], Float64 and Float32.
+    velocity : Vector
+        Platform velocity [m/s] (Float32).
+    ray_velocity : Vector
+        Its components along the ray frame's axes [m/s] (Float32).
+    antenna_frame, ray_frame, receiver_frame : Frame
+        Transmitting antenna, ray grid and receiving antenna to world rotations.
+    """
+
+    transmitter: Vector
+    transmitter32: Vector
+    receiver: Vector
+    receiver32: Vector
+    velocity: Vector
+    ray_velocity: Vector
+    antenna_frame: Frame
+    ray_frame: Frame
+    receiver_frame: Frame
 
 
 def _padded(chosen: NDArray) -> NDArray:
     return np.concatenate([chosen, np.full(-len(chosen) % PACK, chosen[-1])])
 
 
-def _upload(sw: dict, name: str, kind: type, values: NDArray) -> None:
-    sw[name] = kind(np.ascontiguousarray(values))
+def _upload(kind: type, values: NDArray) -> Any:
+    """One opaque device array of ``values``."""
+    array = kind(np.ascontiguousarray(values))
+    dr.make_opaque(array)
+    return array
 
 
-def _upload_frames(sw: dict, prefix: str, frames: NDArray) -> None:
-    for i in range(3):
-        for j in range(3):
-            _upload(sw, f"{prefix}{i}{j}", mi.Float, frames[:, i, j])
+def _upload_vector(kind: type, values: NDArray) -> Vector:
+    """The columns of ``values`` (items, 3) as three opaque device arrays."""
+    return tuple(_upload(kind, values[:, i]) for i in range(3))
 
 
-def backscatter_sweep_arrays(geometry: dict, frames: NDArray, radar: Radar, chosen: NDArray,
-                             plane_normals: NDArray) -> dict:
-    """Per-sweep device arrays of the backscatter kernels: mid-sweep time, antenna position
-    and velocity, antenna frame ``f``, 2D plane normal ``n2``."""
+def _upload_frames(frames: NDArray) -> Frame:
+    """Rotations (items, 3, 3) as nine opaque Float32 device arrays."""
+    return tuple(tuple(_upload(mi.Float, frames[:, i, j]) for j in range(3))
+                 for i in range(3))
+
+
+def backscatter_sweep_arrays(geometry: SweepGeometry, frames: NDArray, radar: Radar,
+                             chosen: NDArray, plane_normals: NDArray) -> SweepArrays:
+    """Per-sweep device arrays of the backscatter kernels for the sweeps ``chosen``."""
     padded = _padded(chosen)
-    pos, vel = geometry["position"][padded], geometry["velocity"][padded]
-    mid = geometry["slow_time"][padded] + radar.sweep_duration / 2
-    sw: dict = {}
-    _upload(sw, "time", mi.Float64, mid)
-    _upload(sw, "time32", mi.Float, mid)
-    for i, axis in enumerate("xyz"):
-        _upload(sw, "p" + axis, mi.Float64, pos[:, i])
-        _upload(sw, "v" + axis, mi.Float64, vel[:, i])
-        _upload(sw, "p" + axis + "32", mi.Float, pos[:, i])
-        _upload(sw, "n2" + axis, mi.Float, plane_normals[padded, i])
-    _upload_frames(sw, "f", frames[padded])
-    dr.make_opaque(*sw.values())
-    # 3D (no plane normal): a kernel variant without the 2D slab test, compiled once.
-    sw["planar"] = bool(np.any(plane_normals[padded] != 0.0))
-    return sw
+    pos, vel = geometry.position[padded], geometry.velocity[padded]
+    mid = geometry.slow_time[padded] + radar.sweep_duration / 2
+    return SweepArrays(
+        time=_upload(mi.Float64, mid), time32=_upload(mi.Float, mid),
+        position=_upload_vector(mi.Float64, pos), position32=_upload_vector(mi.Float, pos),
+        velocity=_upload_vector(mi.Float64, vel),
+        plane_normal=_upload_vector(mi.Float, plane_normals[padded]),
+        frame=_upload_frames(frames[padded]),
+        # 3D (no plane normal): a kernel variant without the 2D slab test, compiled once.
+        planar=bool(np.any(plane_normals[padded] != 0.0)))
 
 
-def visibility_block_arrays(blocks: NDArray) -> dict:
-    """Device arrays of the visibility blocks of a chunk (docs/integrator.md §"Visibility
-    reuse"): ``block_of`` (block of each sweep of the chunk), ``block_first`` and
-    ``block_last`` (first and last sweep of each block, indices into the chunk), and for
-    chunks of at most 128 sweeps ``block_bits0`` and ``block_bits1`` (UInt64: bit ``s`` of
-    word ``s // 64`` set for each sweep ``s`` of the block, the sweep masks of
-    :func:`~.blocks.block_trace`).
+def visibility_block_arrays(blocks: NDArray) -> VisibilityBlocks:
+    """Device arrays of the visibility blocks of a chunk (:class:`VisibilityBlocks`).
 
     Parameters
     ----------
@@ -197,30 +403,26 @@ def visibility_block_arrays(blocks: NDArray) -> dict:
     count = int(blocks[-1]) + 1
     first = np.searchsorted(blocks, np.arange(count), side="left")
     last = np.searchsorted(blocks, np.arange(count), side="right") - 1
-    sw: dict = {}
-    _upload(sw, "block_of", mi.UInt32, blocks[_padded(index)].astype(np.uint32))
-    _upload(sw, "block_first", mi.UInt32, _padded(first).astype(np.uint32))
-    _upload(sw, "block_last", mi.UInt32, _padded(last).astype(np.uint32))
+    bits = None
     if len(blocks) <= MAX_CHUNK_SWEEPS:
-        bits = [sum(1 << int(s) for s in range(f, e + 1)) for f, e in zip(first, last,
-                                                                          strict=True)]
-        for word in range(2):
-            _upload(sw, f"block_bits{word}", mi.UInt64, _padded(np.array(
-                [(b >> (64 * word)) & (2**64 - 1) for b in bits], dtype=np.uint64)))
-    dr.make_opaque(*sw.values())
-    return sw
+        masks = [sum(1 << int(s) for s in range(f, e + 1)) for f, e in zip(first, last,
+                                                                           strict=True)]
+        bits = tuple(_upload(mi.UInt64, _padded(np.array(
+            [(b >> (64 * word)) & (2**64 - 1) for b in masks], dtype=np.uint64)))
+            for word in range(2))
+    return VisibilityBlocks(
+        block_of=_upload(mi.UInt32, blocks[_padded(index)].astype(np.uint32)),
+        first_sweep=_upload(mi.UInt32, _padded(first).astype(np.uint32)),
+        last_sweep=_upload(mi.UInt32, _padded(last).astype(np.uint32)),
+        sweep_bits=bits)
 
 
-def shared_probe_arrays(sweeps: NDArray, first: NDArray, end: NDArray) -> dict:
-    """Device arrays of shared visibility probes (docs/integrator.md §"Visibility reuse"):
-    ``probe_sweep`` (the chunk's probed sweeps) and, per block, ``probe_first`` and
-    ``probe_end`` (indices into them; :func:`~mitsar.model.geometry.visibility.
-    shared_probe_sweeps`)."""
-    sw: dict = {}
-    for name, values in (("probe_sweep", sweeps), ("probe_first", first), ("probe_end", end)):
-        _upload(sw, name, mi.UInt32, _padded(np.asarray(values)).astype(np.uint32))
-    dr.make_opaque(*sw.values())
-    return sw
+def shared_probe_arrays(sweeps: NDArray, first: NDArray, end: NDArray) -> SharedProbes:
+    """Device arrays of shared visibility probes (:class:`SharedProbes`) from
+    :func:`~mitsar.model.geometry.visibility.shared_probe_sweeps`."""
+    sweep, first, end = (_upload(mi.UInt32, _padded(np.asarray(values)).astype(np.uint32))
+                         for values in (sweeps, first, end))
+    return SharedProbes(sweep=sweep, first=first, end=end)
 
 
 MAX_CHUNK_SWEEPS = 128
@@ -241,8 +443,8 @@ antenna position from ``p_a + (s - a) step`` [m] (a phase error below 4e-6 rad a
 antenna frame entries [-] and velocity [m/s] from their values at the anchor sweep ``a``."""
 
 
-def chunk_step_arrays(geometry: dict, frames: NDArray, chosen: NDArray
-                      ) -> tuple[dict, bool, float]:
+def chunk_step_arrays(geometry: SweepGeometry, frames: NDArray, chosen: NDArray
+                      ) -> tuple[Vector, bool, float]:
     """Antenna step per sweep over a chunk, whether the block kernel may advance it in float32,
     and how far the antenna moves from the anchor.
 
@@ -255,14 +457,14 @@ def chunk_step_arrays(geometry: dict, frames: NDArray, chosen: NDArray
 
     Returns
     -------
-    dict
-        ``stepx``, ``stepy``, ``stepz``: Float64 (padded) [m].
+    Vector
+        The step's x, y, z: Float64 (padded) [m] (:attr:`SweepArrays.step`).
     bool
         True if the chunk is uniform (float32 advance).
     float
         Largest antenna displacement from the anchor sweep [m].
     """
-    pos, vel = geometry["position"][chosen], geometry["velocity"][chosen]
+    pos, vel = geometry.position[chosen], geometry.velocity[chosen]
     rot = frames[chosen]
     anchor = len(chosen) // 2
     step = (pos[-1] - pos[0]) / max(len(chosen) - 1, 1)
@@ -273,66 +475,56 @@ def chunk_step_arrays(geometry: dict, frames: NDArray, chosen: NDArray
                    and np.abs(rot - rot[anchor]).max() <= tol_f
                    and np.abs(vel - vel[anchor]).max() <= tol_v
                    and half_span <= MAX_HALF_SPAN * (1.0 + 1e-9))
-    sw: dict = {}
-    for i, axis in enumerate("xyz"):
-        _upload(sw, "step" + axis, mi.Float64, _padded(step[i:i + 1]))
-    dr.make_opaque(*sw.values())
-    return sw, uniform, half_span
+    step_arrays = tuple(_upload(mi.Float64, _padded(step[i:i + 1])) for i in range(3))
+    return step_arrays, uniform, half_span
 
 
-def multipath_sweep_arrays(geometry: dict, frames: NDArray, setup: Any, chosen: NDArray
-                           ) -> dict:
-    """Per-sweep device arrays of the multipath kernel: transmitter ``p`` and receiver ``q``
-    positions, velocity, its components in the ray frame ``va``, the antenna frame ``f``, the
-    ray frame ``r`` and the receiving frame ``g``."""
+def multipath_sweep_arrays(geometry: SweepGeometry, frames: NDArray, setup: Any,
+                           chosen: NDArray) -> MultipathSweepArrays:
+    """Per-sweep device arrays of the multipath kernel for the sweeps ``chosen``
+    (:class:`MultipathSweepArrays`; ``setup``: the :class:`~.setup.TraceSetup`)."""
     padded = _padded(chosen)
-    pos, vel = geometry["position"][padded], geometry["velocity"][padded]
+    pos, vel = geometry.position[padded], geometry.velocity[padded]
     rx = pos + setup.receiver_offset
     ray_frames = setup.ray_frames[padded]
     va = np.einsum("sij,si->sj", ray_frames, vel)
-    sw: dict = {}
-    for i, axis in enumerate("xyz"):
-        _upload(sw, "p" + axis, mi.Float64, pos[:, i])
-        _upload(sw, "p" + axis + "32", mi.Float, pos[:, i])
-        _upload(sw, "q" + axis, mi.Float64, rx[:, i])
-        _upload(sw, "q" + axis + "32", mi.Float, rx[:, i])
-        _upload(sw, "v" + axis, mi.Float, vel[:, i])
-        _upload(sw, f"va{i}", mi.Float, va[:, i])
-    _upload_frames(sw, "f", frames[padded])
-    _upload_frames(sw, "r", ray_frames)
-    _upload_frames(sw, "g", setup.receiver_frames[padded])
-    dr.make_opaque(*sw.values())
-    return sw
+    return MultipathSweepArrays(
+        transmitter=_upload_vector(mi.Float64, pos),
+        transmitter32=_upload_vector(mi.Float, pos),
+        receiver=_upload_vector(mi.Float64, rx), receiver32=_upload_vector(mi.Float, rx),
+        velocity=_upload_vector(mi.Float, vel), ray_velocity=_upload_vector(mi.Float, va),
+        antenna_frame=_upload_frames(frames[padded]), ray_frame=_upload_frames(ray_frames),
+        receiver_frame=_upload_frames(setup.receiver_frames[padded]))
 
 
-def scatterer_arrays(sc: ScattererSet) -> dict:
-    """Device arrays of a scatterer set (uploaded once and kept in ``sc.device``)."""
-    if "px" not in sc.device:
-        dev: dict = {}
-        for i, axis in enumerate("xyz"):
-            _upload(dev, "p" + axis, mi.Float64, sc.position[:, i])
-            _upload(dev, "v" + axis, mi.Float64, sc.velocity[:, i])
-            _upload(dev, "n" + axis, mi.Float, sc.normal[:, i])
-            _upload(dev, "p" + axis + "32", mi.Float, sc.position[:, i])
-            _upload(dev, "v" + axis + "32", mi.Float, sc.velocity[:, i])
-        _upload(dev, "weight", mi.Float, sc.weight)
-        _upload(dev, "phase", mi.Float64, sc.phase)
-        _upload(dev, "row", mi.UInt32, sc.table_row.astype(np.uint32))
-        _upload(dev, "stop", mi.Float, sc.stop)
-        _upload(dev, "tables", mi.Float, sc.tables.ravel())
-        dr.make_opaque(*dev.values())
-        # Static sets (no moving point target or shape) use kernels without velocity gathers.
-        dev["static"] = bool(sc.max_speed() == 0.0)
-        sc.device.update(dev)
-    return sc.device
+def scatterer_arrays(scatterers: ScattererSet) -> ScattererArrays:
+    """Device arrays of a scatterer set (uploaded once and kept in its ``device`` cache)."""
+    if "arrays" not in scatterers.device:
+        position, velocity = scatterers.position, scatterers.velocity
+        scatterers.device["arrays"] = ScattererArrays(
+            position=_upload_vector(mi.Float64, position),
+            position32=_upload_vector(mi.Float, position),
+            velocity=_upload_vector(mi.Float64, velocity),
+            velocity32=_upload_vector(mi.Float, velocity),
+            normal=_upload_vector(mi.Float, scatterers.normal),
+            weight=_upload(mi.Float, scatterers.weight),
+            phase=_upload(mi.Float64, scatterers.phase),
+            table_row=_upload(mi.UInt32, scatterers.table_row.astype(np.uint32)),
+            stop=_upload(mi.Float, scatterers.stop),
+            tables=_upload(mi.Float, scatterers.tables.ravel()),
+            # Static sets (no moving point target or shape) use kernels without velocity
+            # gathers.
+            static=bool(scatterers.max_speed() == 0.0))
+    return scatterers.device["arrays"]
 
 
-def chunk_bounds(geometry: dict, frames: NDArray, radar: Radar, chosen: NDArray,
-                 target_speed: float) -> dict:
-    """Middle sweep of a chunk and how far the antenna moves [m] and turns around it."""
+def chunk_bounds(geometry: SweepGeometry, frames: NDArray, radar: Radar, chosen: NDArray,
+                 target_speed: float) -> dict[str, float]:
+    """Middle sweep of a chunk and how far the antenna moves [m] and turns around it: the
+    ``mid_*`` values of :data:`BACKSCATTER_FLOATS` (for :meth:`Constants.replace`)."""
     mid = chosen[len(chosen) // 2]
-    pos = geometry["position"]
-    times = geometry["slow_time"]
+    pos = geometry.position
+    times = geometry.slow_time
     disp = (np.linalg.norm(pos[chosen] - pos[mid], axis=1).max()
             + target_speed * np.abs(times[chosen] - times[mid]).max())
     turn = np.linalg.norm(frames[chosen] - frames[mid], axis=1).max()

@@ -23,13 +23,13 @@ from mitsar.model.radar import SPEED_OF_LIGHT
 from mitsar.plugins.integrators.radar.constants import Constants
 
 
-def deposit(k: Constants, re: Any, im: Any, base: Any, slant_range: Any, range_rate: Any,
+def deposit(constants: Constants, re: Any, im: Any, base: Any, slant_range: Any, range_rate: Any,
             amplitude: Any, extra_cycles: Any, active: Any) -> None:
     """Scatter-add one complex contribution per lane into the histogram ``re + j im``.
 
     Parameters
     ----------
-    k : Constants
+    constants : Constants
         ``fc``, ``chirp_rate``, ``rvp``, ``first_range``, ``inv_step``, ``last_lower``.
     re, im : mi.Float64
         Histogram buffer, bin ``j`` of histogram row ``h`` at ``h * bins + j``.
@@ -47,10 +47,12 @@ def deposit(k: Constants, re: Any, im: Any, base: Any, slant_range: Any, range_r
         Lanes that deposit; lanes whose apparent range leaves the grid are dropped.
     """
     f64, f32 = mi.Float64, mi.Float
-    r_app = hg.apparent_range(slant_range, f64(range_rate), k)
-    lower, w_lo, w_hi = hg.split_weights((r_app - k["first_range"]) * k["inv_step"], dr.floor)
-    active = active & (lower >= 0.0) & (lower < k["last_lower"])
-    cycles = hg.deposit_cycles(slant_range * (2.0 / SPEED_OF_LIGHT), k, k["rvp"])
+    r_app = hg.apparent_range(slant_range, f64(range_rate), constants)
+    lower, w_lo, w_hi = hg.split_weights(
+        (r_app - constants["first_range"]) * constants["inv_step"], dr.floor)
+    active = active & (lower >= 0.0) & (lower < constants["last_lower"])
+    cycles = hg.deposit_cycles(slant_range * (2.0 / SPEED_OF_LIGHT), constants,
+                               constants["rvp"])
     if extra_cycles is not None:
         cycles = cycles + f64(extra_cycles)
     # Wrapped in float64 (f_c tau ~ 2e4 cycles), then float32 is exact to ~4e-7 rad.

@@ -46,6 +46,7 @@ from tqdm.auto import tqdm
 
 from mitsar.errors import MitsarError, ParameterError
 from mitsar.model import histogram as hg
+from mitsar.model.geometry.sweeps import SweepGeometry
 from mitsar.model.radar import Radar
 from mitsar.model.trace_options import TraceOptions
 from mitsar.plugins import PerVariant, parse_vector3, plugin_where, read_properties
@@ -60,7 +61,6 @@ from mitsar.plugins.integrators.radar.config import (
     histogram_buffer_length,
 )
 from mitsar.plugins.integrators.radar.constants import (
-    MULTIPATH_FLOATS,
     Constants,
     backscatter_constants,
     multipath_constants,
@@ -72,13 +72,6 @@ from mitsar.scene.scatterers import ScattererSet
 
 _NOT_AN_IMAGE = ("the 'radar' integrator makes range histograms, not images: use "
                  "mitsar.trace(...) or mitsar.simulate_scene(...)")
-
-
-def _ray_arrays(setup: TraceSetup) -> tuple[dict, Any]:
-    rays = {"p": mi.Float(setup.rays.p), "q": mi.Float(setup.rays.q)}
-    ids = mi.UInt32(np.arange(len(setup.rays), dtype=np.uint32))
-    dr.make_opaque(*rays.values(), ids)
-    return rays, ids
 
 
 def _make_class() -> type:
@@ -124,7 +117,8 @@ def _make_class() -> type:
 
         # ---- radar interface -----------------------------------------------------------
 
-        def trace_histograms(self, scene: Any, geometry: dict, radar: Radar, frames: NDArray,
+        def trace_histograms(self, scene: Any, geometry: SweepGeometry, radar: Radar,
+                             frames: NDArray,
                              scatterers: ScattererSet, grid: tuple[int, int], *,
                              sweeps: NDArray | None = None, config: TraceOptions
                              | None = None, rvp: bool = True, normalized: bool = False,
@@ -136,7 +130,7 @@ def _make_class() -> type:
             Parameters
             ----------
             scene : mitsuba.Scene
-            geometry : dict
+            geometry : SweepGeometry
                 :func:`mitsar.raw.product.sweep_geometry` of the whole acquisition.
             radar : Radar
             frames : ndarray, shape (sweeps, 3, 3)
@@ -190,7 +184,7 @@ def _make_class() -> type:
                                      "receiver (direct backscatter is traced monostatically "
                                      "only)", backscatter)
             orders = config.max_depth
-            sweeps = (np.arange(len(geometry["slow_time"])) if sweeps is None
+            sweeps = (np.arange(len(geometry.slow_time)) if sweeps is None
                       else np.asarray(sweeps, dtype=np.int64))
             bins = grid[1]
             count = len(scatterers) if backscatter else 0
@@ -205,20 +199,20 @@ def _make_class() -> type:
                 return
             per_chunk = max(1, min(SWEEPS_PER_CHUNK, config.chunk_lanes,
                                    HISTOGRAM_CHUNK_ELEMENTS // (orders * bins)))
-            device = scatterer_arrays(scatterers) if count else None
+            arrays = scatterer_arrays(scatterers) if count else None
             target_speed = scatterers.max_speed() if count else 0.0
             if count and blocks.block_kernel_applies(config, target_speed == 0.0,
                                                      setup.planar):
                 per_chunk = blocks.block_chunk_sweeps(per_chunk, bins,
-                                                      geometry["position"][sweeps])
-            max_speed = float(np.linalg.norm(geometry["velocity"], axis=1).max()) + target_speed
-            k = backscatter_constants(radar, config, grid,
-                                      hg.range_step(radar, config.bins_per_cell), orders, rvp,
-                                      normalized, max_speed, setup.planar)
+                                                      geometry.position[sweeps])
+            max_speed = float(np.linalg.norm(geometry.velocity, axis=1).max()) + target_speed
+            constants = backscatter_constants(radar, config, grid,
+                                              hg.range_step(radar, config.bins_per_cell),
+                                              orders, rvp, normalized, max_speed, setup.planar)
             if multipath:
                 table = bounce.shape_table(scene, setup.absorbers)
-                ray_dev, ray_ids = _ray_arrays(setup)
-                kmp = multipath_constants(radar, config, k, setup.rays)
+                rays, ray_ids = bounce.ray_arrays(setup.rays)
+                ray_constants = multipath_constants(radar, config, constants, setup.rays)
             bar = tqdm(total=len(sweeps), disable=not progress, desc="trace", unit="sweep")
             try:
                 for s0 in range(0, len(sweeps), per_chunk):
@@ -231,12 +225,12 @@ def _make_class() -> type:
                     re = dr.zeros(mi.Float64, length)
                     im = dr.zeros(mi.Float64, length)
                     if count:
-                        backscatter_chunk(scene, device, geometry, frames, radar, setup, chosen,
-                                          k, target_speed, config, re, im, self.statistics,
-                                          visibility_block)
+                        backscatter_chunk(scene, arrays, geometry, frames, radar, setup, chosen,
+                                          constants, target_speed, config, re, im,
+                                          self.statistics, visibility_block)
                     if multipath:
-                        self._multipath_chunk(scene, table, ray_dev, ray_ids, geometry, frames,
-                                              setup, chosen, kmp, config, re, im)
+                        self._multipath_chunk(scene, table, rays, ray_ids, geometry, frames,
+                                              setup, chosen, ray_constants, config, re, im)
                     shape = (len(chosen), orders, bins)
                     hist = np.empty(shape, np.complex128)  # filled part by part: no temporaries
                     hist.real[...] = np.asarray(re)[:size].reshape(shape)
@@ -246,7 +240,7 @@ def _make_class() -> type:
             finally:
                 bar.close()
 
-        def trace_paths(self, scene: Any, geometry: dict, radar: Radar, frames: NDArray,
+        def trace_paths(self, scene: Any, geometry: SweepGeometry, radar: Radar, frames: NDArray,
                         sweep: int, rays: NDArray, config: TraceOptions,
                         setup: TraceSetup) -> dict[str, NDArray]:
             """Path log of some rays of one sweep (same kernel as :meth:`trace_histograms`).
@@ -260,34 +254,36 @@ def _make_class() -> type:
                 ``captured`` (capture weight of the segment, 0: not captured).
             """
             rays = np.asarray(rays, dtype=np.uint32)
-            k = backscatter_constants(radar, config, (0, 2),
-                                      hg.range_step(radar, config.bins_per_cell),
-                                      config.max_depth, True, False, 0.0, False)
-            kmp = multipath_constants(radar, config, k, setup.rays)
-            kmp["first"], kmp["sweeps"] = 0, 1
-            kmp["last_lower"] = -1.0  # deposit nothing
-            ray_dev, _ = _ray_arrays(setup)
-            sw = multipath_sweep_arrays(geometry, frames, setup, np.array([int(sweep)]))
+            constants = backscatter_constants(radar, config, (0, 2),
+                                              hg.range_step(radar, config.bins_per_cell),
+                                              config.max_depth, True, False, 0.0, False)
+            ray_constants = multipath_constants(radar, config, constants, setup.rays).replace(
+                first=0, sweeps=1, last_lower=-1.0)  # deposit nothing
+            ray_grid, _ = bounce.ray_arrays(setup.rays)
+            sweep_arrays = multipath_sweep_arrays(geometry, frames, setup,
+                                                  np.array([int(sweep)]))
             re = dr.zeros(mi.Float64, config.max_depth * 2)
             im = dr.zeros(mi.Float64, config.max_depth * 2)
             log: list = []
-            bounce.launch(scene, bounce.shape_table(scene, setup.absorbers), ray_dev, sw,
-                          Constants(kmp, MULTIPATH_FLOATS), mi.UInt32(rays), len(rays), re, im,
+            bounce.launch(scene, bounce.shape_table(scene, setup.absorbers), ray_grid,
+                          sweep_arrays, ray_constants, mi.UInt32(rays), len(rays), re, im,
                           config.max_depth, config.capture, False, setup.planar, log=log)
             return {key: np.stack([entry[key] for entry in log], axis=1) for key in log[0]}
 
-        def _multipath_chunk(self, scene: Any, table: dict, ray_dev: dict, ray_ids: Any,
-                             geometry: dict, frames: NDArray, setup: TraceSetup,
-                             chosen: NDArray, kmp: dict, config: TraceOptions,
+        def _multipath_chunk(self, scene: Any, table: bounce.ShapeTable,
+                             rays: bounce.RayArrays, ray_ids: Any, geometry: SweepGeometry,
+                             frames: NDArray, setup: TraceSetup, chosen: NDArray,
+                             acquisition: Constants, config: TraceOptions,
                              re: Any, im: Any) -> None:
-            """Mechanism 2 for one chunk of sweeps, in blocks of rays."""
-            sw = multipath_sweep_arrays(geometry, frames, setup, chosen)
+            """Mechanism 2 for one chunk of sweeps, in blocks of rays (``acquisition``: the
+            :func:`~.constants.multipath_constants`)."""
+            sweep_arrays = multipath_sweep_arrays(geometry, frames, setup, chosen)
             block = max(1, min(config.chunk_lanes, MULTIPATH_CHUNK_LANES) // len(chosen))
             for r0 in range(0, len(setup.rays), block):
                 width = min(block, len(setup.rays) - r0)
-                kmp["first"], kmp["sweeps"] = r0, len(chosen)
-                bounce.launch(scene, table, ray_dev, sw, Constants(kmp, MULTIPATH_FLOATS),
-                              ray_ids, width * len(chosen), re, im, config.max_depth,
+                constants = acquisition.replace(first=r0, sweeps=len(chosen))
+                bounce.launch(scene, table, rays, sweep_arrays, constants, ray_ids,
+                              width * len(chosen), re, im, config.max_depth,
                               config.capture, config.ghosts, setup.planar,
                               stats=self.statistics)
                 self.statistics["rays"] += width * len(chosen)
