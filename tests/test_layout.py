@@ -21,7 +21,7 @@ RANKS = {
     "mitsar.plugins": 4,
     "mitsar.raw": 5,
     "mitsar.focus": 6,
-    "mitsar.quality": 7, "mitsar.plots": 7, "mitsar.export": 7,
+    "mitsar.quality": 7, "mitsar.interferometry": 7, "mitsar.plots": 7, "mitsar.export": 7,
     "mitsar.experiment": 8,
     "mitsar.ambiguity": 9,
     "mitsar.report": 9.5,
