@@ -32,10 +32,9 @@ from typing import Any
 
 import drjit as dr
 import numpy as np
-from drjit.llvm import Float32, Float64, Int32, UInt32, UInt64
 from numpy.typing import NDArray
 
-from mitsar.backend import require_llvm
+from mitsar.backend import array_namespace, namespace_of
 from mitsar.focus.aperture import doppler_geometry
 from mitsar.focus.windows import cosine_series, evaluate_window
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
@@ -235,9 +234,11 @@ def backproject_drjit(profile: NDArray, frequency: NDArray, radar: Radar, pixels
     Doppler shift of the lookup, interpolation, sin/cos, de-rotation, window, sums) in
     float32; each lane takes :data:`LANE_PIXELS` pixels of similar sweep range and gathers a
     sweep's geometry once for all of them (docs/focusing.md, kernel speed). Agrees with
-    :func:`backproject_numpy` to 1e-6 of the peak (about -120 dB over an image).
+    :func:`backproject_numpy` to 1e-6 of the peak (about -120 dB over an image). Runs on the
+    backend of :func:`mitsar.backend.array_namespace` (LLVM on the CPU or CUDA; docs/gpu.md).
     """
-    require_llvm()
+    jit = array_namespace()
+    Float32, Float64, UInt32 = jit.Float32, jit.Float64, jit.UInt32  # Dr.Jit type names
     if len(pixels) == 0:
         return np.zeros(0, dtype=complex), np.zeros(0)
     sweeps = profile.shape[0]
@@ -300,8 +301,11 @@ def kernel_tables(profile: NDArray, frequency: NDArray, radar: Radar, positions:
     profile position of ``K tau`` and of the Doppler term, carrier turns per metre, bins,
     half width, window coefficients), the sweep arrays (position float64; unit direction,
     speed and centroid sine float32; a bistatic channel's receiver position float64) and the
-    profiles as one 64-bit (real, imag) float32 word per bin.
+    profiles as one 64-bit (real, imag) float32 word per bin, all on the backend of
+    :func:`mitsar.backend.array_namespace`.
     """
+    jit = array_namespace()
+    Float32, Float64, UInt32, UInt64 = jit.Float32, jit.Float64, jit.UInt32, jit.UInt64
     sweeps, bins = profile.shape
     _, speed, direction, coefficients = _kernel_inputs(positions[:0], sweeps, velocities,
                                                        window, None)
@@ -359,19 +363,21 @@ def jit_array(kind: type, array: NDArray, dtype: type) -> Any:
     return value
 
 
-def _cos32(angle: Float32) -> Float32:
+def _cos32(angle: Any) -> Any:
     return dr.cos(angle)
 
 
-def pixel_pulse(k: UInt32, pixel: tuple, sweep: tuple, pairs: UInt64, constants: dict
-                 ) -> tuple[Float32, Float32, Float32]:
+def pixel_pulse(k: Any, pixel: tuple, sweep: tuple, pairs: Any, constants: dict
+                 ) -> tuple[Any, Any, Any]:
     """Weighted, de-rotated profile value of one pixel for sweep k (steps 1-4 of the module).
 
     Range, profile position and carrier turns in float64 (:func:`carrier_turns`,
     :func:`profile_position`); the direction sine, the Doppler shift of the lookup
     (:func:`mitsar.model.signal.beat_frequency`, Meta 2007 §II-B), the interpolation, the
-    de-rotation and the window in float32.
+    de-rotation and the window in float32. Array types from ``k``'s backend.
     """
+    jit = namespace_of(k)
+    Float32, Int32, UInt32, UInt64 = jit.Float32, jit.Int32, jit.UInt32, jit.UInt64
     x, y, z, first, end = pixel[:5]
     gx, gy, gz, ux, uy, uz, speed, centroid = sweep[:8]
     bins, half_width = constants["bins"], constants["half_width"]
@@ -411,16 +417,17 @@ def pixel_pulse(k: UInt32, pixel: tuple, sweep: tuple, pairs: UInt64, constants:
     return weight * part_real, weight * part_imag, weight
 
 
-def pulse_loop(lane_pixels: list, first: UInt32, end: UInt32, sweep_arrays: list,
-               pairs: UInt64, constants: dict, lanes: int) -> list:
+def pulse_loop(lane_pixels: list, first: Any, end: Any, sweep_arrays: list, pairs: Any,
+               constants: dict, lanes: int) -> list:
     """A symbolic loop over sweeps, ``len(lane_pixels)`` pixels (or FFBP nodes) per lane: the
     sweep's geometry is gathered once per lane and sweep; three float32 accumulators (real,
-    imaginary, weight) per pixel, in that order (:func:`pixel_pulse`)."""
+    imaginary, weight) per pixel, in that order (:func:`pixel_pulse`); on ``first``'s backend."""
+    jit = namespace_of(first)
 
-    def condition(k: UInt32, *_: Float32) -> Any:
+    def condition(k: Any, *_: Any) -> Any:
         return k < end
 
-    def body(k: UInt32, *accumulators: Float32) -> tuple:
+    def body(k: Any, *accumulators: Any) -> tuple:
         sweep = tuple(dr.gather(type(a), a, k) for a in sweep_arrays)
         out = []
         for g, pixel in enumerate(lane_pixels):
@@ -428,7 +435,8 @@ def pulse_loop(lane_pixels: list, first: UInt32, end: UInt32, sweep_arrays: list
             out += [accumulators[3 * g + i] + parts[i] for i in range(3)]
         return (k + 1, *out)
 
-    state = (UInt32(first), *[dr.zeros(Float32, lanes) for _ in range(3 * len(lane_pixels))])
+    state = (jit.UInt32(first),
+             *[dr.zeros(jit.Float32, lanes) for _ in range(3 * len(lane_pixels))])
     return list(dr.while_loop(state, condition, body)[1:])
 
 

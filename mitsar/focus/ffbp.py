@@ -74,7 +74,7 @@ import xarray as xr
 from numpy.typing import NDArray
 from tqdm.auto import tqdm
 
-from mitsar.backend import require_llvm
+from mitsar.backend import require_backend
 from mitsar.budget import require_memory
 from mitsar.errors import ParameterError
 from mitsar.focus.aperture import sweep_window, track_coordinates
@@ -158,7 +158,7 @@ def focus_ffbp(raw: xr.Dataset, layout_or_pixels: dict | NDArray, *, half_width:
     extra : dict
         Processing attributes (band selection, options, stage count).
     """
-    require_llvm()
+    require_backend()  # LLVM (libLLVM >= 16) or CUDA (a device), docs/gpu.md
     settings = _options(options)
     pixels = _pixel_array(layout_or_pixels)
     sweeps = raw.sizes["sweep"]

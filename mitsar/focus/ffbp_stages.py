@@ -18,13 +18,14 @@ sub-aperture's frame (:func:`polar_node`, float64). Kernels:
 from __future__ import annotations
 
 from dataclasses import dataclass
+from types import ModuleType
 from typing import Any
 
 import drjit as dr
 import numpy as np
-from drjit.llvm import Array4u64, Float32, Float64, UInt32, UInt64
 from numpy.typing import NDArray
 
+from mitsar.backend import namespace_of
 from mitsar.focus.backprojection import (
     carrier_turns,
     derotate,
@@ -125,20 +126,23 @@ def polar_node(rho: Any, alpha: Any, frame: dict, ops: ArrayOps = NUMPY_OPS
                  for i in "xyz")
 
 
-def _jit_frame(stage: Stage, frame: dict[str, NDArray]) -> dict[str, Float64]:
-    """The frame constants and grid origins as float64 Dr.Jit arrays."""
+def _jit_frame(stage: Stage, frame: dict[str, NDArray], jit: ModuleType) -> dict[str, Any]:
+    """The frame constants and grid origins as float64 Dr.Jit arrays of backend ``jit``."""
+    Float64 = jit.Float64
     out = {key: jit_array(Float64, value, np.float64) for key, value in frame.items()}
     out["rho0"] = jit_array(Float64, stage.rho0, np.float64)
     out["alpha0"] = jit_array(Float64, stage.alpha0, np.float64)
     return out
 
 
-def _lane_node(stage: Stage, frame: dict[str, Float64], lane: UInt32, per_lane: int
-               ) -> tuple[UInt32, Float64, list[Float64], list[tuple]]:
+def _lane_node(stage: Stage, frame: dict[str, Any], lane: Any, per_lane: int
+               ) -> tuple[Any, Any, list[Any], list[tuple]]:
     """Sub-aperture, range, angles and positions of the ``per_lane`` nodes of every lane.
 
     Lanes run over (j, i_rho, i_alpha / per_lane); ``N_alpha`` is a multiple of ``per_lane``.
     """
+    jit = namespace_of(lane)
+    Float64 = jit.Float64
     n_rho, n_alpha = stage.shape
     groups = n_alpha // per_lane
     per_j = n_rho * groups
@@ -157,8 +161,10 @@ def _lane_node(stage: Stage, frame: dict[str, Float64], lane: UInt32, per_lane: 
     return j, rho, alphas, nodes
 
 
-def _pack(real: Float32, imag: Float32) -> UInt64:
+def _pack(real: Any, imag: Any) -> Any:
     """(real, imag) float32 as one 64-bit word (real in the low half, as NumPy complex64)."""
+    jit = namespace_of(real)
+    UInt32, UInt64 = jit.UInt32, jit.UInt64
     return (UInt64(dr.reinterpret_array(UInt32, real))
             | (UInt64(dr.reinterpret_array(UInt32, imag)) << 32))
 
@@ -187,11 +193,13 @@ def first_stage(stage: Stage, frame: dict[str, NDArray], tables: tuple, wavenumb
     (:func:`mitsar.focus.backprojection.pixel_pulse`), demodulated by
     ``exp(+j 2 pi wavenumber rho)`` (rho: the node's range, float64, wrapped to one turn).
     """
+    types = namespace_of(tables[2])
+    Float32, Float64, UInt32, UInt64 = types.Float32, types.Float64, types.UInt32, types.UInt64
     constants, sweep_arrays, pairs = tables
     n_rho, n_alpha = stage.shape
     lanes = len(stage.first) * n_rho * n_alpha // LANE_NODES
     lane = dr.arange(UInt32, lanes)
-    jit = _jit_frame(stage, frame)
+    jit = _jit_frame(stage, frame, types)
     j, rho, _, nodes = _lane_node(stage, jit, lane, LANE_NODES)
     first = dr.gather(UInt32, jit_array(UInt32, stage.first, np.uint32), j)
     end = dr.gather(UInt32, jit_array(UInt32, stage.end, np.uint32), j)
@@ -223,9 +231,11 @@ def merge_nodes(stage: Stage, parent: Stage, frame: dict[str, NDArray], children
     :func:`node_frames` of the parent. One lane per parent node, its position from
     :func:`polar_node` (float64, then float32 for the interpolation).
     """
+    types = namespace_of(stage.values)
+    Float32, Float64, UInt32 = types.Float32, types.Float64, types.UInt32
     n_rho, n_alpha = parent.shape
     lanes = len(parent.first) * n_rho * n_alpha
-    jit = _jit_frame(parent, frame)
+    jit = _jit_frame(parent, frame, types)
     j, _, _, nodes = _lane_node(parent, jit, dr.arange(UInt32, lanes), 1)
     point = [Float32(v) for v in nodes[0]]
     reference = [Float32(dr.gather(Float64, jit[key], j)) for key in ("cx", "cy", "cz")]
@@ -240,7 +250,7 @@ def merge_nodes(stage: Stage, parent: Stage, frame: dict[str, NDArray], children
 
 
 def merge_points(stage: Stage, points: NDArray, first_child: NDArray, end_child: NDArray,
-                 wavenumber: float, with_totals: bool) -> tuple[Float32, Float32, Float32]:
+                 wavenumber: float, with_totals: bool) -> tuple[Any, Any, Any]:
     """Sum of the children's images at ``points`` (P, 3) [m, local frame], re-modulated.
 
     Returns ``sum_j V_j(rho_j, alpha_j) exp(-j 2 pi wavenumber rho_j)`` (the carrier of each
@@ -248,6 +258,8 @@ def merge_points(stage: Stage, points: NDArray, first_child: NDArray, end_child:
     ``exp(-j 2 pi wavenumber |y|)`` in float64) and ``sum_j T_j``, as Dr.Jit arrays (real,
     imaginary, totals) whose kernel has been launched (:func:`to_numpy` waits for them).
     """
+    jit = namespace_of(stage.values)
+    Float32, Float64, UInt32 = jit.Float32, jit.Float64, jit.UInt32
     coordinates = [jit_array(Float64, points[:, i], np.float64) for i in range(3)]
     point = [Float32(v) for v in coordinates]
     zero = dr.zeros(Float32, len(points))
@@ -263,13 +275,13 @@ def merge_points(stage: Stage, points: NDArray, first_child: NDArray, end_child:
     return real, imag, total
 
 
-def to_numpy(real: Float32, imag: Float32, total: Float32) -> tuple[NDArray, NDArray]:
+def to_numpy(real: Any, imag: Any, total: Any) -> tuple[NDArray, NDArray]:
     """:func:`merge_points`' results as NumPy (complex values, totals); waits for them."""
     return np.asarray(real, dtype=float) + 1j * np.asarray(imag, dtype=float), np.asarray(
         total, dtype=float)
 
 
-def _tap_rows(values: UInt64) -> UInt64:
+def _tap_rows(values: Any) -> Any:
     """Every node's value followed by its next three along the row, four words per node.
 
     Node n's interpolation row (taps n ... n + 3) is then one aligned 32-byte packet at
@@ -277,6 +289,8 @@ def _tap_rows(values: UInt64) -> UInt64:
     point and child instead of 16 gathers. Indices past the end repeat the last node (they
     are only read for invalid points, whose gathers are masked).
     """
+    jit = namespace_of(values)
+    UInt32, UInt64 = jit.UInt32, jit.UInt64
     count = dr.width(values)
     index = dr.arange(UInt32, 4 * count)
     node = dr.minimum((index >> 2) + (index & 3), count - 1)
@@ -285,8 +299,10 @@ def _tap_rows(values: UInt64) -> UInt64:
     return rows
 
 
-def _child_data(stage: Stage) -> list[Float32]:
+def _child_data(stage: Stage) -> list[Any]:
     """Centres, axes and grid origins of the children, float32 columns."""
+    jit = namespace_of(stage.values)
+    Float32 = jit.Float32
     f32 = np.float32
     return ([jit_array(Float32, stage.centre[:, i], f32) for i in range(3)]
             + [jit_array(Float32, stage.axis[:, i], f32) for i in range(3)]
@@ -294,6 +310,8 @@ def _child_data(stage: Stage) -> list[Float32]:
 
 
 def _scalars(stage: Stage, wavenumber: float) -> dict:
+    jit = namespace_of(stage.values)
+    Float32, UInt32 = jit.Float32, jit.UInt32
     n_rho, n_alpha = stage.shape
     return {"rho_step": dr.opaque(Float32, stage.rho_step),
             "alpha_step": dr.opaque(Float32, stage.alpha_step),
@@ -301,15 +319,17 @@ def _scalars(stage: Stage, wavenumber: float) -> dict:
             "wavenumber": dr.opaque(Float32, wavenumber)}
 
 
-def _merge_loop(point_data: list, first: UInt32, end: UInt32, child: list, values: UInt64,
-                totals: Float32, scalars: dict, with_totals: bool) -> tuple:
+def _merge_loop(point_data: list, first: Any, end: Any, child: list, values: Any,
+                totals: Any, scalars: dict, with_totals: bool) -> tuple:
     """One lane per point, a symbolic loop over its children (:func:`_merge_lanes`)."""
+    jit = namespace_of(first)
+    Float32, UInt32 = jit.Float32, jit.UInt32
     width = dr.width(first)
 
-    def condition(k: UInt32, *_: Float32) -> Any:
+    def condition(k: Any, *_: Any) -> Any:
         return k < end
 
-    def body(k: UInt32, acc_real: Float32, acc_imag: Float32, acc_total: Float32) -> tuple:
+    def body(k: Any, acc_real: Any, acc_imag: Any, acc_total: Any) -> tuple:
         part_real, part_imag, part_total = _merge_lanes(k, point_data, child, values, totals,
                                                         scalars, with_totals)
         return k + 1, acc_real + part_real, acc_imag + part_imag, acc_total + part_total
@@ -318,7 +338,7 @@ def _merge_loop(point_data: list, first: UInt32, end: UInt32, child: list, value
     return dr.while_loop(state, condition, body)[1:]
 
 
-def _keys(t: Float32) -> tuple[Float32, Float32, Float32, Float32]:
+def _keys(t: Any) -> tuple[Any, Any, Any, Any]:
     """Keys cubic-convolution weights (a = -1/2) of the taps at -1, 0, 1, 2 for offset t."""
     t2 = t * t
     t3 = t2 * t
@@ -326,9 +346,11 @@ def _keys(t: Float32) -> tuple[Float32, Float32, Float32, Float32]:
             -1.5 * t3 + 2.0 * t2 + 0.5 * t, 0.5 * t3 - 0.5 * t2)
 
 
-def _merge_lanes(k: UInt32, point_data: list, child: list, values: UInt64, totals: Float32,
-                 scalars: dict, with_totals: bool) -> tuple[Float32, Float32, Float32]:
+def _merge_lanes(k: Any, point_data: list, child: list, values: Any, totals: Any,
+                 scalars: dict, with_totals: bool) -> tuple[Any, Any, Any]:
     """Child k's re-phased image at the lane's point (steps 4-5 of :mod:`mitsar.focus.ffbp`)."""
+    jit = namespace_of(k)
+    Array4u64, Float32, UInt32 = jit.Array4u64, jit.Float32, jit.UInt32
     x, y, z, rx, ry, rz = point_data
     cx_all, cy_all, cz_all, ax_all, ay_all, az_all, rho0_all, alpha0_all = child
     rho_step, alpha_step = scalars["rho_step"], scalars["alpha_step"]

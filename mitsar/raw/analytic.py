@@ -11,15 +11,15 @@ since mid-sweep is the centre of the symmetric fast-time interval).
 from __future__ import annotations
 
 from collections.abc import Iterator, Sequence
+from typing import Any
 
 import drjit as dr
 import numpy as np
 import xarray as xr
-from drjit.llvm import Float32, Float64, UInt32
 from numpy.typing import NDArray
 from tqdm.auto import tqdm
 
-from mitsar.backend import require_llvm
+from mitsar.backend import array_namespace, namespace_of
 from mitsar.budget import require_memory
 from mitsar.checks import integer
 from mitsar.checks import seed as check_seed
@@ -504,9 +504,11 @@ def _sum_echoes_drjit(radar: Radar, trajectory: Trajectory, geometry: SweepGeome
     """Sum of the dechirped echoes as a Dr.Jit kernel: one lane per sample, loop over scatterers.
 
     Same formulas as :func:`_sum_echoes_numpy` (``mitsar.model.signal``; ``offsets`` as there);
-    geometry and phase in float64, sin/cos of the wrapped phase in float32.
+    geometry and phase in float64, sin/cos of the wrapped phase in float32. Runs on the backend
+    of :func:`mitsar.backend.array_namespace` (LLVM on the CPU or CUDA; docs/gpu.md).
     """
-    require_llvm()
+    jit = array_namespace()
+    Float64, UInt32 = jit.Float64, jit.UInt32  # Dr.Jit type names
     sweeps = len(geometry.slow_time)
     times = fast_time(radar)
     sample_count = len(times)
@@ -536,8 +538,8 @@ def _sum_echoes_drjit(radar: Radar, trajectory: Trajectory, geometry: SweepGeome
     return samples
 
 
-def _lane_delay(dx: Float64, dy: Float64, dz: Float64, qx: Float64, qy: Float64, qz: Float64,
-                receiver: tuple | None) -> Float64:
+def _lane_delay(dx: Any, dy: Any, dz: Any, qx: Any, qy: Any, qz: Any, receiver: tuple | None
+                ) -> Any:
     """Delay [s] of a lane from its offset to the transmitter (d = p - q): ``2 |d| / c``, or
     ``(|d| + |r - q|) / c`` with a bistatic receiver at r (:func:`bistatic_delay`)."""
     outgoing = dr.sqrt(dx * dx + dy * dy + dz * dz)
@@ -551,7 +553,10 @@ def _lane_delay(dx: Float64, dy: Float64, dz: Float64, qx: Float64, qy: Float64,
 def _echo_loop(px, py, pz, absolute_time, fast, qx, qy, qz, vx, vy, vz, amp_real,  # noqa: ANN001, ANN202
                amp_imag, carrier, chirp_rate, rvp, scatterers, sample_count, receiver=None):
     """Per sample lane: sum over scatterers of a exp{j 2 pi [f_c tau + K tau t - rvp K tau^2/2]}
-    (``receiver``: the lanes' bistatic receiver positions, or None: monostatic)."""
+    (``receiver``: the lanes' bistatic receiver positions, or None: monostatic). Array types
+    from the inputs' backend (:func:`mitsar.backend.namespace_of`)."""
+    jit = namespace_of(px)
+    Float32, Float64, UInt32 = jit.Float32, jit.Float64, jit.UInt32
     lane = dr.arange(UInt32, dr.width(px))
     sweep = lane // sample_count
     acc_real = dr.zeros(Float64, dr.width(px))

@@ -28,12 +28,9 @@ SUPPORTED_VARIANTS = ("llvm_ad_mono", "cuda_ad_mono", "llvm_mono", "cuda_mono")
 
 
 def _gpu_present() -> bool:
-    try:
-        import drjit as dr  # lazy: Dr.Jit is heavy and only needed once a variant is chosen
-
-        return bool(dr.has_backend(dr.JitBackend.CUDA))
-    except Exception:  # noqa: BLE001 - no CUDA driver, or an old Dr.Jit
-        return False
+    """mitsar's one backend choice (:func:`mitsar.backend.backend_name`: ``MITSAR_BACKEND``,
+    else a CUDA device) is CUDA, and a CUDA device is there."""
+    return backend.backend_name() == "cuda" and backend.cuda_available()
 
 
 def ensure_variant(variant: str | None = None) -> str:
@@ -43,7 +40,8 @@ def ensure_variant(variant: str | None = None) -> str:
     ----------
     variant : str, optional
         Variant to use. Default: keep the active variant if it is one of
-        :data:`SUPPORTED_VARIANTS`, else ``cuda_ad_mono`` when a CUDA GPU is present, else
+        :data:`SUPPORTED_VARIANTS`, else ``cuda_ad_mono`` when a CUDA GPU is present and
+        ``MITSAR_BACKEND`` is not ``llvm`` (:func:`mitsar.backend.backend_name`), else
         ``llvm_ad_mono``.
 
     Returns
