@@ -38,7 +38,7 @@ from mitsar.backend import array_namespace, namespace_of
 from mitsar.focus.aperture import doppler_geometry
 from mitsar.focus.windows import cosine_series, evaluate_window
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
-from mitsar.model.signal import beat_frequency
+from mitsar.model.signal import beat_frequency, half_path
 
 __all__ = [
     "backproject_drjit",
@@ -89,13 +89,6 @@ def carrier_turns(delay: Any, carrier_frequency: Any, floor: Callable[[Any], Any
 def derotate(real: Any, imag: Any, sin_phase: Any, cos_phase: Any) -> tuple[Any, Any]:
     """Real and imaginary parts of ``(real + j imag) exp(-j phase)``."""
     return real * cos_phase + imag * sin_phase, imag * cos_phase - real * sin_phase
-
-
-def half_path(outgoing: Any, incoming: Any) -> Any:
-    """Half the bistatic path ``(|t - x| + |x - r|) / 2`` [m]: the range that a monostatic
-    back-projection's lookup and carrier phase (``2 R / c``) take for a channel whose
-    transmitter and receiver differ (docs/interferometry.md). NumPy and Dr.Jit alike."""
-    return 0.5 * (outgoing + incoming)
 
 
 def pulse_sum(profile: NDArray, frequency: NDArray, delay: NDArray, beat: NDArray,

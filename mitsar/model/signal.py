@@ -61,6 +61,15 @@ def bistatic_delay(transmitter_position: ArrayLike, receiver_position: ArrayLike
     return (outgoing + incoming) / SPEED_OF_LIGHT
 
 
+def half_path(outgoing: Any, incoming: Any) -> Any:
+    """Half the bistatic path ``(|t - q| + |q - r|) / 2`` [m] (or half its rate [m/s]): the
+    "range" whose two-way delay ``2 R / c`` is the channel's exact delay
+    (:func:`bistatic_delay`), which the back-projection and the tracer's deposit take for a
+    channel whose transmitter and receiver differ (docs/interferometry.md). NumPy and Dr.Jit
+    alike."""
+    return 0.5 * (outgoing + incoming)
+
+
 def dechirped_phase_cycles(delay: ArrayLike, fast_time: ArrayLike, radar: Radar,
                            rvp: bool = True) -> NDArray[np.float64]:
     """Phase of the dechirped echo in cycles: ``f_c tau + K tau t - K tau^2 / 2`` (paper eq. 1).

@@ -148,6 +148,9 @@ class TraceOptions:
         Mounting of the bistatic receiving antenna (``None``: the transmitter's).
     sweeps : slice, tuple of int or None
         Sweeps of the acquisition to trace (``None``: all).
+    channel : int
+        The receive channel traced, of a radar with phase centres (default 0;
+        :func:`mitsar.simulate_scene` traces every channel; docs/interferometry.md).
     scene_params : mapping or None
         Values of the scene's ``<default>`` parameters (:func:`mitsar.scene.load_scene`).
     progress : bool
@@ -181,6 +184,7 @@ class TraceOptions:
     receiver_offset: tuple[float, float, float] | None = None
     receiver_look: Look | None = None
     sweeps: Any = None
+    channel: int | None = None
     scene_params: Mapping[str, Any] | None = None
     progress: bool | None = None
 
@@ -289,6 +293,7 @@ class TraceOptions:
                             else "None (monostatic) or a finite 3-vector [m]")
                 raise ParameterError(where, name, expected, value)
         integer("seed", 0)
+        integer("channel", 0)
         integer("bins_per_cell", 1, 256)
         checks.finite(where, "visibility_feature", self.visibility_feature,
                       "a width >= 0 m (0: a shadow ray per sweep)")
@@ -345,5 +350,5 @@ DEFAULTS = TraceOptions(
     plane_normal=None, slab_width=AZIMUTH_CELL, visibility_feature=DEFAULT_VISIBILITY_FEATURE,
     block_kernel=True, rvp=True, normalized=False, noise=False, orders=None,
     physical_optics=False, deterministic=True, backscatter=True, receiver_offset=None,
-    receiver_look=None, sweeps=None, scene_params=None, progress=False)
+    receiver_look=None, sweeps=None, channel=0, scene_params=None, progress=False)
 """The bottom layer: every default of a trace request."""

@@ -156,4 +156,9 @@ def raw_from_histogram(histogram: xr.Dataset, samples: ArrayLike,
                                track_geometry(histogram),
                                rvp=bool(histogram.attrs.get("rvp", 1)), attrs=attrs,
                                true_geometry=track_geometry(histogram, "true_"))
+    for name in ("transmitter_offset", "receiver_offset"):  # one channel of several
+        if name in histogram.variables:
+            product[name] = histogram[name]
+    if "channel" in histogram.attrs:
+        product.attrs["channel"] = histogram.attrs["channel"]
     return product.assign_coords(sweep=histogram["sweep"].values)

@@ -22,7 +22,7 @@ from tqdm.auto import tqdm
 from mitsar.budget import require_memory
 from mitsar.errors import ParameterError
 from mitsar.model import histogram as hg
-from mitsar.model.geometry.attitude import Look, antenna_frame
+from mitsar.model.geometry.attitude import Look, antenna_frame, body_to_world
 from mitsar.model.geometry.navigation import (
     NavigationErrors,
     describe_navigation,
@@ -127,6 +127,7 @@ class TraceRun:
                      else antenna_frame(receiver_look, *self.geometry.attitude.T))
         self.setup = make_setup(radar, self.frames, self.config, self.config.receiver_offset,
                                 rx_frames)
+        self.channel, self.trace_geometry = self._channel(where, radar)
         self.backscatter = self.config.backscatter
         if self.setup.bistatic and self.backscatter:
             raise ParameterError(where, "backscatter", "False with a bistatic receiver (direct "
@@ -144,6 +145,10 @@ class TraceRun:
             self.scatterers = _moving_scatterers(self.scatterers, surface_velocities(
                 self.scene, self.motion.motion))
         facets = self._facets(where, self.config.physical_optics)
+        if facets is not None and self.channel is not None:
+            raise ParameterError(where, "physical_optics", "false with a multi-channel radar "
+                                 "(its facet echoes are monostatic; docs/interferometry.md)",
+                                 self.config.physical_optics)
         low, high = range_limits(self.scatterers, self.geometry.position,
                                  trajectory.max_speed(), radar, trajectory.duration)
         if self.config.max_depth > 1:
@@ -171,6 +176,36 @@ class TraceRun:
             self.config.beam_cull,
             self.motion.shape_motions(facets.shape_ids) if self.motion.rotating else None)
         self.orders = max(self.config.max_depth, 1 if facets is None else 2)
+
+    def _channel(self, where: str, radar: Radar) -> tuple[int | None, SweepGeometry]:
+        """The channel traced and the geometry the integrator traces it from.
+
+        A radar with phase centres (:attr:`Radar.has_channels`) is traced one channel at a
+        time (``config.channel``): the transmitter at the track point plus its body-frame
+        offset rotated by the attitude of the sweep, and, where the receiver is elsewhere, its
+        position per sweep in :attr:`TraceSetup.channel_receivers` (direct backscatter is then
+        deposited at half the exact path). A single-channel radar: the track itself.
+        """
+        if not radar.has_channels:
+            return None, self.geometry
+        channel = self.config.channel
+        if channel >= radar.channel_count:
+            raise ParameterError(where, "channel", f"a channel of the radar, in [0, "
+                                 f"{radar.channel_count})", channel)
+        if self.config.max_depth > 1 or self.setup.bistatic:
+            raise ParameterError(where, "max_depth" if self.config.max_depth > 1
+                                 else "receiver_offset", "direct backscatter only (max_depth "
+                                 "1, monostatic options) with a multi-channel radar: multipath "
+                                 "of channels is not traced yet (docs/interferometry.md)",
+                                 self.config.max_depth if self.config.max_depth > 1
+                                 else self.config.receiver_offset)
+        transmitters, receivers = radar.channel_offsets()
+        rotation = body_to_world(*self.geometry.attitude.T)
+        transmitter = self.geometry.position + rotation @ np.asarray(transmitters[channel])
+        if transmitters[channel] != receivers[channel]:
+            self.setup = dataclasses.replace(self.setup, channel_receivers=(
+                self.geometry.position + rotation @ np.asarray(receivers[channel])))
+        return channel, dataclasses.replace(self.geometry, position=transmitter)
 
     def _facets(self, where: str, physical_optics: Any) -> FacetSet | None:
         """The facets that use physical optics, or None; their shapes stop multipath rays."""
@@ -201,7 +236,8 @@ class TraceRun:
             source = self._moving_chunks(rvp, normalized, progress)
         else:
             source = self.integrator.trace_histograms(
-                self.scene, self.geometry, self.radar, self.frames, self.scatterers, self.grid,
+                self.scene, self.trace_geometry, self.radar, self.frames, self.scatterers,
+                self.grid,
                 sweeps=self.sweeps, config=self.config, rvp=rvp, normalized=normalized,
                 progress=progress, setup=self.setup, backscatter=self.backscatter)
         for chosen, hist in source:
@@ -229,7 +265,7 @@ class TraceRun:
                 middle = float(self.geometry.slow_time[sweep]) + self.radar.sweep_duration / 2
                 self.motion.set_time(middle)
                 yield from self.integrator.trace_histograms(
-                    self.scene, self.geometry, self.radar, self.frames,
+                    self.scene, self.trace_geometry, self.radar, self.frames,
                     self.motion.scatterers_at(self.scatterers, middle),
                     self.grid, sweeps=np.array([sweep]), config=self.config, rvp=rvp,
                     normalized=normalized, progress=False, setup=self.setup,

@@ -107,10 +107,19 @@ def trace(radar: Radar, trajectory: Trajectory, look: Look, scene: Any, *,
         indices.append(chosen)
         parts.append(hist)
     sweeps = np.concatenate(indices)
-    return make_histogram_product(
+    product = make_histogram_product(
         np.concatenate(parts, axis=0), run.radar, run.look, sweeps, run.ranges,
         *run.geometry_of(sweeps), rvp=run.config.rvp, normalized=run.config.normalized,
         first_index=int(run.grid[0]), attrs=run.attrs())
+    if run.channel is not None:  # one channel of several: its phase centres travel with it
+        transmitters, receivers = run.radar.channel_offsets()
+        product.attrs["channel"] = run.channel
+        for name, offset in (("transmitter_offset", transmitters[run.channel]),
+                             ("receiver_offset", receivers[run.channel])):
+            product[name] = ("xyz", np.asarray(offset, dtype=float),
+                             {"units": "m", "long_name": f"body-frame {name.split('_')[0]} "
+                              "phase centre of the channel"})
+    return product
 
 
 def _request(where: str, options: TraceOptions | None, changes: dict[str, Any]) -> TraceOptions:
@@ -221,6 +230,20 @@ def _setup_for(run: TraceRun, config: Any) -> Any:
     return make_setup(run.radar, run.frames, config, run.setup.receiver_offset, rx_frames)
 
 
+def _trace_raw(run: TraceRun) -> tuple[TraceRun, NDArray[np.complex128], NDArray]:
+    """(run, raw samples (sweeps, samples), orders kept) of one traced acquisition, chunk by
+    chunk of sweeps (:func:`_synthesise`)."""
+    samples = np.zeros((len(run.sweeps), run.radar.samples_per_sweep), dtype=np.complex128)
+    row = 0
+    kept = np.arange(0)
+    for chosen, hist in run.chunks():
+        samples[row:row + len(chosen)], kept = _synthesise(hist, np.arange(hist.shape[1]),
+                                                           run.config.orders, run.ranges,
+                                                           run.radar)
+        row += len(chosen)
+    return run, samples, kept
+
+
 def _synthesise(histogram: NDArray, available: NDArray, orders: tuple[int, ...] | None,
                 ranges: NDArray, radar: Radar) -> tuple[NDArray[np.complex128], NDArray]:
     """Raw sweeps of histograms (sweeps, orders, bins): the kept path orders summed, then one
@@ -298,15 +321,16 @@ def simulate_scene(radar: Radar, trajectory: Trajectory, look: Look, scene: Any,
     request = _request("simulate_scene", options, changes)
     resolved = request.resolve("simulate_scene")  # refused before the scene is loaded
     check_noise("simulate_scene", radar, resolved.noise, resolved.normalized)
-    run = TraceRun("simulate_scene", radar, trajectory, look, scene, request, navigation, motion)
+    # One trace per receive channel of a radar with phase centres (docs/interferometry.md);
+    # the scene's scatterers are drawn once (cached on its integrator) and shared.
+    channels = range(radar.channel_count) if radar.has_channels else [None]
+    traced = [_trace_raw(TraceRun("simulate_scene", radar, trajectory, look, scene,
+                                  request if k is None else request.replace(channel=k),
+                                  navigation, motion)) for k in channels]
+    run, kept = traced[0][0], traced[0][2]
+    samples = (np.stack([samples for _, samples, _ in traced]) if radar.has_channels
+               else traced[0][1])
     config = run.config
-    samples = np.zeros((len(run.sweeps), radar.samples_per_sweep), dtype=np.complex128)
-    row = 0
-    kept = np.arange(0)
-    for chosen, hist in run.chunks():
-        samples[row:row + len(chosen)], kept = _synthesise(hist, np.arange(hist.shape[1]),
-                                                           config.orders, run.ranges, radar)
-        row += len(chosen)
     attrs = run.attrs()
     attrs.update(simulator="ray tracing (radar integrator)", normalized=int(config.normalized),
                  orders=[int(o) for o in kept])
@@ -314,7 +338,7 @@ def simulate_scene(radar: Radar, trajectory: Trajectory, look: Look, scene: Any,
         analytic = simulate_point_targets(radar, trajectory, look, targets, background,
                                           seed=config.seed, rvp=config.rvp,
                                           normalized=config.normalized, navigation=run.recorded)
-        samples += analytic["raw"].values[run.sweeps]
+        samples += analytic["raw"].values[..., run.sweeps, :]
         attrs["simulator"] += " + analytic point targets"
         attrs["analytic_config"] = analytic.attrs.get("config", "{}")
     if not np.any(samples):
@@ -324,8 +348,12 @@ def simulate_scene(radar: Radar, trajectory: Trajectory, look: Look, scene: Any,
                       "check the look angles, the trajectory, the materials and the orders",
                       MitsarWarning, stacklevel=2)
     attrs["noise"] = int(config.noise)
-    if config.noise:
+    if config.noise and radar.has_channels:  # independent noise per receiver
+        for k in channels:
+            samples[k] += thermal_noise(radar, config.seed, run.sweeps, k)
+    elif config.noise:
         samples += thermal_noise(radar, config.seed, run.sweeps)
+    if config.noise:
         attrs.update(noise_power=radar.noise_power, noise_seed=int(config.seed))
     recorded, true = run.geometry_of(run.sweeps)
     product = make_raw_product(samples, radar, look, recorded, rvp=config.rvp, attrs=attrs,

@@ -40,6 +40,7 @@ from mitsar.model.geometry.visibility import (
     visibility_blocks,
 )
 from mitsar.model.radar import Radar
+from mitsar.model.signal import half_path
 from mitsar.model.trace_options import TraceOptions
 from mitsar.plugins.integrators.radar.blocks import (
     add_packets,
@@ -299,6 +300,13 @@ def _contribute(scene: Any, scatterers: ScattererArrays, sweep_arrays: SweepArra
              for target, antenna in zip(scatterers.velocity, sweep_arrays.velocity,
                                         strict=True)]
     rdot = sum((qi - ai) * vi for qi, ai, vi in zip(q, a, v_rel, strict=True)) * inv_r
+    path, path_rate = r, rdot
+    if sweep_arrays.receiver is not None:  # a bistatic channel: half its exact path
+        b = [qi - at_sweep(rx) for qi, rx in zip(q, sweep_arrays.receiver, strict=True)]
+        rb = dr.sqrt(b[0] * b[0] + b[1] * b[1] + b[2] * b[2])
+        # the receiver rides with the antenna (its velocity; the attitude's rate neglected)
+        rbdot = sum(bi * vi for bi, vi in zip(b, v_rel, strict=True)) / rb
+        path, path_rate = half_path(r, rb), half_path(rdot, rbdot)
 
     # 2. Two-way pattern: the one-way sinc^2 power pattern is the amplitude factor.
     u_az, u_el, _ = frame_sines(d, lambda i, j: at_sweep(sweep_arrays.frame[i][j], f32))
@@ -324,7 +332,7 @@ def _contribute(scene: Any, scatterers: ScattererArrays, sweep_arrays: SweepArra
     # 5. Amplitude (radar equation, paper eq. 2 with the two-way pattern) and the deposit.
     amp = one_way * dr.sqrt(sigma) * dr.select(constants["normalized"] > 0.0, 1.0,
                                                f32(constants["radar_const"] * inv_r * inv_r))
-    deposit(constants, re, im, sweep * constants["sweep_stride"], r, rdot, amp,
+    deposit(constants, re, im, sweep * constants["sweep_stride"], path, path_rate, amp,
             at_scatterer(scatterers.phase), active)
 
 
@@ -345,7 +353,7 @@ def backscatter_chunk(scene: Any, scatterers: ScattererArrays, geometry: SweepGe
     """
     count = scatterers.count
     sweep_arrays = backscatter_sweep_arrays(geometry, frames, radar, chosen,
-                                            setup.plane_normals)
+                                            setup.plane_normals, setup.channel_receivers)
     chunk = {**chunk_bounds(geometry, frames, radar, chosen, target_speed),
              "first": 0, "sweeps": len(chosen)}
     motion = sight_line_motion(geometry.position[chosen], geometry.slow_time[chosen],
@@ -355,7 +363,7 @@ def backscatter_chunk(scene: Any, scatterers: ScattererArrays, geometry: SweepGe
     # ray per sweep keep the lane kernels. Its probes share the rays at block boundaries unless
     # the caller caps the blocks (e.g. at scene changes).
     blocked = (block_kernel_applies(config, scatterers.static, sweep_arrays.planar)
-               and len(chosen) <= MAX_CHUNK_SWEEPS)
+               and len(chosen) <= MAX_CHUNK_SWEEPS and sweep_arrays.receiver is None)
     shared = blocked and visibility_block is None
     blocks = visibility_blocks(motion, float(config.visibility_feature),
                                len(chosen) if visibility_block is None

@@ -307,6 +307,9 @@ class SweepArrays:
     step : Vector or None
         Antenna step per sweep over the chunk [m] (Float64, width 1; block kernel,
         :func:`chunk_step_arrays`).
+    receiver : Vector or None
+        A channel's receive phase centre at mid-sweep [m] (Float64), where it is not the
+        transmitter (:attr:`~.setup.TraceSetup.channel_receivers`); None: monostatic.
     """
 
     time: Any
@@ -320,6 +323,7 @@ class SweepArrays:
     blocks: VisibilityBlocks | None = None
     probes: SharedProbes | None = None
     step: Vector | None = None
+    receiver: Vector | None = None
 
 
 @dataclass
@@ -375,8 +379,10 @@ def _upload_frames(frames: NDArray) -> Frame:
 
 
 def backscatter_sweep_arrays(geometry: SweepGeometry, frames: NDArray, radar: Radar,
-                             chosen: NDArray, plane_normals: NDArray) -> SweepArrays:
-    """Per-sweep device arrays of the backscatter kernels for the sweeps ``chosen``."""
+                             chosen: NDArray, plane_normals: NDArray,
+                             receivers: NDArray | None = None) -> SweepArrays:
+    """Per-sweep device arrays of the backscatter kernels for the sweeps ``chosen``
+    (``receivers``: a bistatic channel's receive phase centre per sweep of the acquisition)."""
     padded = _padded(chosen)
     pos, vel = geometry.position[padded], geometry.velocity[padded]
     mid = geometry.slow_time[padded] + radar.sweep_duration / 2
@@ -387,7 +393,8 @@ def backscatter_sweep_arrays(geometry: SweepGeometry, frames: NDArray, radar: Ra
         plane_normal=_upload_vector(mi.Float, plane_normals[padded]),
         frame=_upload_frames(frames[padded]),
         # 3D (no plane normal): a kernel variant without the 2D slab test, compiled once.
-        planar=bool(np.any(plane_normals[padded] != 0.0)))
+        planar=bool(np.any(plane_normals[padded] != 0.0)),
+        receiver=None if receivers is None else _upload_vector(mi.Float64, receivers[padded]))
 
 
 def visibility_block_arrays(blocks: NDArray) -> VisibilityBlocks:

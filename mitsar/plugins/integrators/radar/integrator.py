@@ -201,8 +201,8 @@ def _make_class() -> type:
                                    HISTOGRAM_CHUNK_ELEMENTS // (orders * bins)))
             arrays = scatterer_arrays(scatterers) if count else None
             target_speed = scatterers.max_speed() if count else 0.0
-            if count and blocks.block_kernel_applies(config, target_speed == 0.0,
-                                                     setup.planar):
+            if count and setup.channel_receivers is None and blocks.block_kernel_applies(
+                    config, target_speed == 0.0, setup.planar):
                 per_chunk = blocks.block_chunk_sweeps(per_chunk, bins,
                                                       geometry.position[sweeps])
             max_speed = float(np.linalg.norm(geometry.velocity, axis=1).max()) + target_speed

@@ -41,6 +41,11 @@ class TraceSetup:
     absorbers : tuple of mitsuba.Shape
         Shapes on which multipath rays stop instead of reflecting: those whose specular
         returns physical optics gives (docs/physical_optics.md §5).
+    channel_receivers : ndarray, shape (sweeps, 3), or None
+        The receive phase centre per sweep [m] of one channel of a multi-channel radar whose
+        receiver is not its transmitter (docs/interferometry.md): direct backscatter is then
+        deposited at half the exact path ``(|t - q| + |q - r|) / 2`` (lane kernels); None:
+        monostatic.
     """
 
     ray_frames: NDArray
@@ -50,6 +55,7 @@ class TraceSetup:
     rays: RaySet | None
     planar: bool
     absorbers: tuple[Any, ...] = ()
+    channel_receivers: NDArray | None = None
 
     @property
     def bistatic(self) -> bool:
