@@ -213,9 +213,14 @@ def _on(name: str, family: str) -> np.ndarray:
 
 
 # Bounds [dB]: each backend meets its reference bound above, so by the triangle inequality
-# the two differ by at most twice that (+6 dB); the spectral images and FFBP inherit the
-# simulator's and BPA's kernel differences, far below their own bounds.
-CROSS_BOUNDS = {"analytic": -114.0, "bpa": -94.0, "ffbp": -80.0, "rda": -114.0,
+# the two differ by at most twice that (+6 dB); the spectral images inherit the simulator's
+# difference. FFBP is the exception: its merges re-phase in float32 (ranges near 8 m to
+# ~1e-6 m, i.e. 3e-3 rad at 2 f_c / c = 513 cycles/m, about -50 dB), and the backends round
+# differently there (CUDA fuses multiply-adds), so CUDA and LLVM differ near that floor:
+# -53.7 dB measured on an H200 (docs/gpu.md), still below FFBP's own -44 dB against BPA.
+# Measured on the H200 otherwise: analytic -188.5, BPA -136.7, RDA/WDA/FSA -222.1,
+# tracer -109.1 dB.
+CROSS_BOUNDS = {"analytic": -114.0, "bpa": -94.0, "ffbp": -45.0, "rda": -114.0,
                 "wda": -114.0, "fsa": -114.0, "tracer": -44.0}
 
 
