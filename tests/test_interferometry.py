@@ -1,5 +1,6 @@
 """Interferometry stage (issue 22 parts 3-4): closed-form checks on synthetic multi-channel images
-built to the image contract of docs/interferometry.md §1 (no simulator needed)."""
+built to the image contract of docs/interferometry.md §1, and one end-to-end test through the
+analytic simulator and focus."""
 
 from __future__ import annotations
 
