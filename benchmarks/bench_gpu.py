@@ -98,7 +98,7 @@ def bpa_case(scale: float, repeats: int) -> dict:
 def ffbp_case(scale: float, repeats: int) -> dict:
     sweeps = 4000
     raw = paper_target_raw(sweeps, RADAR)
-    half = min(2.0, max(0.2, 0.5 * scale))  # slant grid half side [m]
+    half = min(2.0, max(0.2, 0.5 * scale))  # slant grid half side [m], 401 x 401 at most
     origin = raw["platform_position"].values[0]
     along = 15.0 - origin[0]
     grid = SlantGrid(along_track=[along - half, along + half, 0.01],
