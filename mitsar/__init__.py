@@ -10,6 +10,7 @@ from mitsar.export import read_cphd
 from mitsar.focus import grid
 from mitsar.focus.compression import range_compress
 from mitsar.focus.dispatch import focus
+from mitsar.interferometry import interferogram
 from mitsar.io import load, save
 from mitsar.model.geometry.attitude import Look, boresight
 from mitsar.model.geometry.navigation import NavigationErrors, Vibration
@@ -25,8 +26,8 @@ from mitsar.version import __version__
 
 __all__ = [
     "Background", "Look", "MitsarError", "NavigationErrors", "ParameterError", "PointTarget",
-    "Radar", "Trajectory", "Vibration", "__version__", "ambiguity", "boresight", "focus", "grid",
-    "histogram_to_raw_product", "load", "measure_impulse_response", "range_compress",
-    "raw_from_arrays", "read_cphd", "read_gotcha", "read_raw", "save", "simulate_point_targets",
-    "simulate_scene", "trace", "TraceOptions",
+    "Radar", "TraceOptions", "Trajectory", "Vibration", "__version__", "ambiguity", "boresight",
+    "focus", "grid", "histogram_to_raw_product", "interferogram", "load",
+    "measure_impulse_response", "range_compress", "raw_from_arrays", "read_cphd", "read_gotcha",
+    "read_raw", "save", "simulate_point_targets", "simulate_scene", "trace",
 ]

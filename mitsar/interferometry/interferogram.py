@@ -54,6 +54,7 @@ INTERFEROGRAM_VARIABLES: dict[str, tuple[str, str]] = {
     "phase": ("rad", "wrapped flat interferometric phase"),
     "reference_phase": ("rad", "phase (2 pi / lambda)(L1 - L2) of the reference surface"),
     "coherence": ("1", "boxcar coherence estimate (biased upward for few looks)"),
+    "coherence_snr": ("1", "thermal-noise coherence predicted from the image's noise power"),
     "unwrapped_phase": ("rad", "unwrapped flat phase tied to the reference surface"),
     "connected_component": ("1", "SNAPHU connected component (0: none)"),
     "height": ("m", "world z of the scatterer"),
@@ -99,6 +100,25 @@ def _block_mean(values: NDArray, size: int) -> NDArray:
     """Mean of a 1-D coordinate over consecutive blocks of ``size`` (remainder dropped)."""
     n = values.shape[0] // size
     return values[: n * size].reshape(n, size).mean(axis=1)
+
+
+def _snr_coherence(image: xr.Dataset, s1: NDArray, s2: NDArray, window: tuple[int, int],
+                   invalid: NDArray) -> NDArray[np.float64]:
+    """Thermal-noise coherence ``1 / sqrt((1 + 1/SNR_1)(1 + 1/SNR_2))`` of each multilooked
+    pixel (Zebker & Villasenor 1992 eq. 6, docs/interferometry.md §4), with SNR_k the
+    channel's mean power over the window less the image's ``noise_power`` [W] (the same in
+    every channel: one receiver design), over it; 1 where the image carries no noise power
+    (noise-free simulations)."""
+    if "noise_power" not in image.variables:
+        return np.ones(multilook(s1, window, invalid)[0].shape)
+    noise = multilook(np.asarray(image["noise_power"].values, float), window, invalid)[0]
+    factors = []
+    for values in (s1, s2):
+        power = multilook(np.abs(values) ** 2, window, invalid)[0]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            snr = np.maximum(power - noise, 0.0) / noise
+            factors.append(np.where(noise > 0, 1.0 + 1.0 / snr, 1.0))
+    return 1.0 / np.sqrt(factors[0] * factors[1])
 
 
 def interferogram(image: xr.Dataset, pair: tuple[int, int] = (0, 1),
@@ -182,13 +202,17 @@ def interferogram(image: xr.Dataset, pair: tuple[int, int] = (0, 1),
         unwrapped = np.where(excluded, np.nan, phase)
         components = np.where(excluded, 0, 1)
     position = phase_to_position(unwrapped, pixels, geometry, wavelength)
-    sigma_phi = predicted_phase_std(gamma, count)
+    # The thermal decorrelation the image's own noise power predicts (Zebker & Villasenor
+    # 1992): a bound on the coherence that holds for one look too, where the estimate is 1.
+    gamma_snr = _snr_coherence(image, s1, s2, window, invalid)
+    sigma_phi = predicted_phase_std(np.fmin(gamma, gamma_snr), count)
     height_std = sigma_phi * np.abs(height_sensitivity(unwrapped, pixels, geometry, wavelength))
 
     grid = (row, col)
     data = {
         "interferogram": (grid, ifg), "amplitude": (grid, amplitude), "phase": (grid, phase),
         "reference_phase": (grid, phi_ref), "coherence": (grid, gamma),
+        "coherence_snr": (grid, gamma_snr),
         "unwrapped_phase": (grid, unwrapped), "connected_component": (grid, components),
         "height": (grid, position[..., 2]), "position": ((*grid, "xyz"), position),
         "pixel_position": ((*grid, "xyz"), pixels), "height_std": (grid, height_std),
