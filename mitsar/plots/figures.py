@@ -34,6 +34,7 @@ from numpy.typing import ArrayLike, NDArray  # noqa: E402
 
 from mitsar.checks import positive  # noqa: E402
 from mitsar.errors import MitsarError  # noqa: E402
+from mitsar.focus.channels import channel_view  # noqa: E402
 from mitsar.focus.compression import range_compress  # noqa: E402
 from mitsar.focus.grid import equivalent_position  # noqa: E402
 from mitsar.io import atomic_output, check_writable, load  # noqa: E402
@@ -43,6 +44,7 @@ from mitsar.products.raw import radar_of  # noqa: E402
 from mitsar.products.requests import target_positions  # noqa: E402
 
 __all__ = [
+    "first_channel",
     "plot_background_histograms",
     "plot_cuts",
     "plot_file",
@@ -76,6 +78,20 @@ def _extent(x: NDArray, y: NDArray) -> list[float]:
 
 
 # --- range-compressed data ------------------------------------------------------------------
+def first_channel(product: xr.Dataset) -> tuple[xr.Dataset, str]:
+    """Channel 0 of a multi-channel product (raw or image) and a note for titles.
+
+    Figures of products with a ``channel`` dim (docs/interferometry.md §1) show channel 0 and
+    say so; a single-channel product is returned as is, with an empty note.
+    """
+    if "channel" not in product.dims:
+        return product, ""
+    note = f" (channel 0 of {product.sizes['channel']})"
+    if "raw" in product:
+        return channel_view(product, 0), note
+    return product.isel(channel=0), note
+
+
 def plot_range_compressed(product: xr.Dataset, ax: Axes | None = None,
                           dynamic_range_db: float = 50.0, window: str = "rect",
                           max_range: float | None = None) -> Axes:
@@ -99,6 +115,7 @@ def plot_range_compressed(product: xr.Dataset, ax: Axes | None = None,
     -------
     Axes
     """
+    product, channel_note = first_channel(product)
     if "profile" not in product:
         if "raw" not in product:
             raise MitsarError("plot_range_compressed: expected a raw product (variable 'raw') "
@@ -127,7 +144,7 @@ def plot_range_compressed(product: xr.Dataset, ax: Axes | None = None,
                       extent=_extent(ranges[keep], slow))
     ax.set_xlabel("slant range [m]")
     ax.set_ylabel(slow_label)
-    ax.set_title("range-compressed data")
+    ax.set_title("range-compressed data" + channel_note)
     ax.figure.colorbar(shown, ax=ax, label="dB (peak = 0)")
     return ax
 
@@ -138,7 +155,7 @@ def _image_axes(image: xr.Dataset) -> tuple[str, str, NDArray, NDArray]:
     if "image" not in image:
         raise MitsarError("plot_image: expected an image product (variable 'image'), found "
                           f"variables {sorted(image.data_vars)}")
-    rows, cols = image["image"].dims
+    rows, cols = image["image"].dims[-2:]  # after a leading "channel" dim, if any
     return (str(rows), str(cols), np.asarray(image[rows].values, dtype=float),
             np.asarray(image[cols].values, dtype=float))
 
@@ -191,6 +208,7 @@ def plot_image(image: xr.Dataset, ax: Axes | None = None, dynamic_range_db: floa
     -------
     Axes
     """
+    image, channel_note = first_channel(image)
     rows, cols, y, x = _image_axes(image)
     values = _db(image["image"].transpose(rows, cols).values)
     ax = _new_axes(ax)
@@ -200,7 +218,8 @@ def plot_image(image: xr.Dataset, ax: Axes | None = None, dynamic_range_db: floa
     ax.set_xlabel(_AXIS_LABELS.get(cols, f"{cols} [m]"))
     ax.set_ylabel(_AXIS_LABELS.get(rows, f"{rows} [m]"))
     algorithm = str(image.attrs.get("algorithm", "")).upper()
-    ax.set_title(title if title is not None else f"focused image {algorithm}".strip())
+    ax.set_title(title if title is not None
+                 else f"focused image {algorithm}".strip() + channel_note)
     ax.figure.colorbar(shown, ax=ax, label="dB (peak = 0)", shrink=0.9)
     for index, (name, position) in enumerate((marks or {}).items()):
         where = _mark_location(image, position)
@@ -302,6 +321,7 @@ def plot_cuts(image: xr.Dataset, metrics: Mapping[str, Any] | None = None,
     """
     if axes is None:
         _, axes = plt.subplots(1, 2, figsize=(11, 4), layout="constrained")
+    image, channel_note = first_channel(image)
     cuts = _cut_through_peak(image, metrics)
     for ax, name in zip(axes, ("range", "azimuth"), strict=True):
         offset, values, dim = cuts[name]
@@ -315,7 +335,7 @@ def plot_cuts(image: xr.Dataset, metrics: Mapping[str, Any] | None = None,
         ax.set_ylim(-dynamic_range_db, 3.0)
         ax.set_xlabel(f"{name} offset from the peak [m] (along '{dim}')")
         ax.set_ylabel("dB (peak = 0)")
-        ax.set_title(f"{name} cut")
+        ax.set_title(f"{name} cut{channel_note}")
         ax.grid(True, alpha=0.3)
         ax.legend(loc="lower center", fontsize="small")
     return axes
