@@ -1,8 +1,9 @@
 """Reading experiment files: TOML in, a validated :class:`~.options.Experiment` out.
 
 An experiment file has the tables ``[radar]``, ``[trajectory]``, ``[look]``, ``[[targets]]``,
-``[background]`` (optional), ``[simulation]``, ``[focus]`` (with ``[focus.grid]``) and
-``[metrics]``, and the optional top-level keys ``name``, ``description`` and ``scene``. Every key,
+``[background]`` (optional), ``[simulation]``, ``[focus]`` (with ``[focus.grid]``),
+``[metrics]`` and ``[interferometry]`` (optional, for a radar with several receivers), and
+the optional top-level keys ``name``, ``description`` and ``scene``. Every key,
 its type, unit and default is documented in ``docs/experiments.md``.
 
 Validation is strict: an unknown table or key, a wrong type, a vector of the wrong length or a
@@ -31,6 +32,7 @@ from mitsar.experiment.parsers import (
     parse_flight,
     parse_focus,
     parse_grid,
+    parse_interferometry,
     parse_look,
     parse_metrics,
     parse_motion,
@@ -117,13 +119,18 @@ def experiment_from_dict(data: Mapping[str, Any], source: str | os.PathLike | No
         table = top.table(key)
         sections[key] = parser(table)
         top.out[key] = table.out if table is not None else {}
+    interferometry_table = top.table("interferometry")
+    interferometry = parse_interferometry(interferometry_table, radar.channel_count)
+    if interferometry_table is not None:
+        top.out["interferometry"] = interferometry_table.out
     top.finish()
     config = json.loads(json.dumps(top.out))
     return Experiment(radar=radar, trajectory=trajectory, navigation=navigation, look=look,
                       targets=targets,
                       background=background, simulation=sections["simulation"],
                       focus=sections["focus"], metrics=sections["metrics"], scene=scene,
-                      motion=motion, name=name, description=description,
+                      motion=motion, interferometry=interferometry, name=name,
+                      description=description,
                       source=Path(source).resolve() if source is not None else None,
                       config=config)
 

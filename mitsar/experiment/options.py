@@ -35,6 +35,7 @@ __all__ = [
     "WINDOWS",
     "Experiment",
     "FocusOptions",
+    "InterferometryOptions",
     "MetricsOptions",
 ]
 
@@ -103,6 +104,30 @@ class MetricsOptions:
     islr_extent: str | float = "paper"
 
 
+@dataclass(frozen=True)
+class InterferometryOptions:
+    """Interferometry options (``[interferometry]``; :func:`mitsar.interferometry.interferogram`,
+    docs/interferometry.md). Used when the radar has two or more receive channels.
+
+    Attributes
+    ----------
+    pair : (int, int)
+        Channels (1, 2) of the interferogram ``s_1 s_2*``.
+    looks : (int, int)
+        Multilook window (rows, cols) [pixels] on the image grid.
+    unwrap : bool
+        Unwrap the phase with SNAPHU; false takes the wrapped phase (right when every scatterer
+        lies within half an ambiguity height of the focusing grid).
+    min_coherence : float
+        Pixels of lower coherence [1] are left out of unwrapping and of the point cloud.
+    """
+
+    pair: tuple[int, int] = (0, 1)
+    looks: tuple[int, int] = (1, 1)
+    unwrap: bool = True
+    min_coherence: float = 0.3
+
+
 @dataclass
 class Experiment:
     """A validated experiment (see :func:`load_experiment`).
@@ -121,6 +146,9 @@ class Experiment:
         and fall to the scene's integrator, then to the defaults.
     focus : FocusOptions
     metrics : MetricsOptions
+    interferometry : InterferometryOptions
+        ``[interferometry]``: what ``mitsar run`` does with the image of a radar with two or
+        more receive channels (the defaults when the file has no such table).
     scene : str or None
         A scene file (absolute path) or a canned scene name, for scene-based simulation.
     navigation : NavigationErrors or None
@@ -148,6 +176,7 @@ class Experiment:
     scene: str | None = None
     navigation: NavigationErrors | None = None
     motion: dict[str, Any] = field(default_factory=dict)
+    interferometry: InterferometryOptions = field(default_factory=InterferometryOptions)
     name: str = ""
     description: str = ""
     source: Path | None = None

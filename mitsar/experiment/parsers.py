@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from mitsar.errors import ParameterError
 from mitsar.experiment.options import (
     ALGORITHMS,
     AUTOFOCUS_METHODS,
@@ -24,6 +25,7 @@ from mitsar.experiment.options import (
     ISLR_EXTENTS,
     WINDOWS,
     FocusOptions,
+    InterferometryOptions,
     MetricsOptions,
 )
 from mitsar.experiment.table import Table, prefixed
@@ -44,6 +46,7 @@ __all__ = [
     "parse_background",
     "parse_focus",
     "parse_grid",
+    "parse_interferometry",
     "parse_look",
     "parse_metrics",
     "parse_navigation",
@@ -382,6 +385,40 @@ def parse_metrics(t: Table | None) -> MetricsOptions:
     t.out["islr_extent"] = extent
     t.finish()
     return MetricsOptions(target, extent if isinstance(extent, str) else float(extent))
+
+
+def _integer_pair(t: Table, name: str, default: tuple[int, int], expected: str,
+                  ok: Any) -> tuple[int, int]:
+    """An array of two TOML integers for which ``ok(first, second)`` holds."""
+    t.seen.add(name)
+    value = t.data.get(name, list(default))
+    if not (isinstance(value, list) and len(value) == 2
+            and all(isinstance(v, int) and not isinstance(v, bool) for v in value)
+            and ok(*value)):
+        raise t.error(name, expected, value)
+    t.out[name] = list(value)
+    return int(value[0]), int(value[1])
+
+
+def parse_interferometry(t: Table | None, channels: int = 2) -> InterferometryOptions:
+    """``[interferometry]``: pair, looks, unwrap and min_coherence of the interferogram of a
+    radar with ``channels`` receive channels (docs/interferometry.md)."""
+    if t is None:
+        return InterferometryOptions()
+    if channels < 2:
+        raise ParameterError(t.where, t.path or "interferometry", "a radar with two or more "
+                             "receive channels for an [interferometry] table: [radar] receivers "
+                             "= [[0, 0, 0], [0, 0, 0.05]] (or drop the table)",
+                             f"{channels} receive channel")
+    pair = _integer_pair(t, "pair", (0, 1), f"two different channel indices in 0..{channels - 1}"
+                         ", e.g. [0, 1]", lambda a, b: a != b and 0 <= a < channels
+                         and 0 <= b < channels)
+    looks = _integer_pair(t, "looks", (1, 1), "an array of two integers >= 1 [pixels] "
+                          "(rows, cols), e.g. [5, 5]", lambda a, b: a >= 1 and b >= 1)
+    unwrap = t.boolean("unwrap", True)
+    min_coherence = t.number("min_coherence", 0.3, ge=0.0, le=1.0)
+    t.finish()
+    return InterferometryOptions(pair, looks, bool(unwrap), float(min_coherence))
 
 
 def parse_motion(t: Table | None) -> dict[str, Motion]:
