@@ -114,9 +114,9 @@ def ffbp_case(scale: float, repeats: int) -> dict:
 
 
 def tracer_case(name: str, scale: float, repeats: int) -> dict:
+    from mitsar.plugins.variant import register_plugins
     from mitsar.raw.traced import trace
     from mitsar.scene import load_scene
-    from mitsar.scene.variant import register_plugins
 
     register_plugins(VARIANTS[name])
     scene = load_scene("control_volume")

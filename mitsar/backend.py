@@ -1,7 +1,7 @@
 """The Dr.Jit compute backend: which one runs mitsar's kernels, and fail early when it cannot.
 
 One choice for every Dr.Jit kernel of mitsar (the analytic simulator, BPA, FFBP; the tracer's
-Mitsuba variant follows it too, :mod:`mitsar.scene.variant`): :func:`backend_name` resolves,
+Mitsuba variant follows it too, :mod:`mitsar.plugins.variant`): :func:`backend_name` resolves,
 in this order, an explicit argument, a :func:`use_backend` block, the environment variable
 ``MITSAR_BACKEND`` (``auto``, ``llvm`` or ``cuda``) and ``auto`` = CUDA where Dr.Jit finds a
 CUDA device (:func:`cuda_available`), else LLVM (CPU). :func:`array_namespace` gives the

@@ -217,7 +217,7 @@ def test_prediction_matches_focused_irw(squint_deg: float, plane: str, along: st
 # --------------------------------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def box_scene():
-    from mitsar.scene import import_mitsuba as _mitsuba
+    from mitsar.plugins.variant import import_mitsuba as _mitsuba
 
     mi = _mitsuba()
     transform = mi.ScalarTransform4f

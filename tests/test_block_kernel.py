@@ -20,10 +20,11 @@ from mitsar.model.histogram import histogram_to_raw
 from mitsar.model.radar import SPEED_OF_LIGHT
 from mitsar.plugins.integrators.radar import blocks as blocks_module
 from mitsar.plugins.integrators.radar.constants import chunk_step_arrays
+from mitsar.plugins.variant import register_plugins
 from mitsar.raw.product import sweep_geometry
 from mitsar.raw.trace_run import TraceRun
 from mitsar.raw.traced import histogram_to_raw_product, trace
-from mitsar.scene import load_scene, register_plugins
+from mitsar.scene import load_scene
 
 mi = pytest.importorskip("mitsuba")
 dr = pytest.importorskip("drjit")

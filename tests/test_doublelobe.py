@@ -247,7 +247,7 @@ def test_presets_and_overrides() -> None:
 
 @pytest.fixture(scope="module")
 def mi():
-    from mitsar.scene import register_plugins
+    from mitsar.plugins.variant import register_plugins
 
     register_plugins()
     import mitsuba

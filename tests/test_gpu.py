@@ -30,8 +30,8 @@ from mitsar.focus.backprojection import backproject_drjit, backproject_numpy
 from mitsar.focus.compression import range_spectrum
 from mitsar.focus.grid import SlantGrid
 from mitsar.focus.windows import window_coefficients
+from mitsar.plugins.variant import DEFAULT_VARIANT, GPU_VARIANT, register_plugins
 from mitsar.raw.traced import simulate_scene
-from mitsar.scene.variant import DEFAULT_VARIANT, GPU_VARIANT, register_plugins
 
 mi = pytest.importorskip("mitsuba")
 dr = pytest.importorskip("drjit")

@@ -229,9 +229,9 @@ def test_rotating_plate_flashes_when_its_normal_crosses_the_line_of_sight():
     and turning at 20 deg/s about the x axis through its centre: its PO return peaks when the
     normal points at the antenna (t = 0.098 s, mid-sweep 24), at sigma = 4 pi A^2 / lambda^2."""
     from mitsar.model.geometry.attitude import rotation_x
+    from mitsar.plugins.variant import register_plugins
     from mitsar.raw.product import sweep_geometry
     from mitsar.raw.traced import trace
-    from mitsar.scene import register_plugins
 
     register_plugins()
     import mitsuba as mi

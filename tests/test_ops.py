@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from mitsar.scene import register_plugins
+from mitsar.plugins.variant import register_plugins
 
 mi = pytest.importorskip("mitsuba")
 

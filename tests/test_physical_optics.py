@@ -204,9 +204,9 @@ def _plate_scene(mi, centre, normal, side, screen=False):
 def test_traced_plate_matches_the_radar_equation():
     pytest.importorskip("mitsuba")
     import mitsar
+    from mitsar.plugins.variant import register_plugins
     from mitsar.raw.product import sweep_geometry
     from mitsar.raw.traced import simulate_scene
-    from mitsar.scene import register_plugins
 
     register_plugins()
     import mitsuba as mi

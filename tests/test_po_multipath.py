@@ -113,8 +113,8 @@ def _ply(path, triangles):
 def _setup(duration=0.02):
     pytest.importorskip("mitsuba")
     import mitsar
+    from mitsar.plugins.variant import register_plugins
     from mitsar.raw.product import sweep_geometry
-    from mitsar.scene import register_plugins
 
     register_plugins()
     import mitsuba as mi

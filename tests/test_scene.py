@@ -12,6 +12,8 @@ import mitsar.scene as ms
 from mitsar import backend
 from mitsar.backend import BackendError
 from mitsar.errors import MissingFileError, ParameterError
+from mitsar.plugins import variant as pv
+from mitsar.plugins.kind import PluginKind, plugin_kind
 from mitsar.scene import canned as scenes
 
 ROOM = (np.zeros(3), np.array([30.0, 10.0, 6.0]))
@@ -19,7 +21,7 @@ ROOM = (np.zeros(3), np.array([30.0, 10.0, 6.0]))
 
 @pytest.fixture(scope="module")
 def mi():
-    ms.register_plugins()
+    pv.register_plugins()
     import mitsuba
 
     return mitsuba
@@ -31,10 +33,10 @@ def mi():
 
 
 def test_register_plugins_is_idempotent(mi) -> None:
-    assert ms.register_plugins() == mi.variant()
-    assert ms.register_plugins() in ms.SUPPORTED_VARIANTS
+    assert pv.register_plugins() == mi.variant()
+    assert pv.register_plugins() in pv.SUPPORTED_VARIANTS
     bsdf = mi.load_dict({"type": "doublelobe"})
-    assert bsdf.MITSAR_KIND == "doublelobe"
+    assert plugin_kind(bsdf) is PluginKind.DOUBLELOBE
 
 
 def test_plugins_follow_variant_changes(mi) -> None:
@@ -49,11 +51,11 @@ def test_plugins_follow_variant_changes(mi) -> None:
 
 def test_ensure_variant_errors(mi, monkeypatch: pytest.MonkeyPatch) -> None:
     with pytest.raises(ParameterError, match="parameter 'variant'"):
-        ms.ensure_variant("scalar_rgb")
+        pv.ensure_variant("scalar_rgb")
     assert backend.llvm_probe()[0]
     monkeypatch.setattr(backend, "llvm_probe", lambda: (False, "LLVM ERROR: Cannot select"))
     with pytest.raises(BackendError, match="libllvm19") as info:
-        ms.ensure_variant("llvm_ad_mono")
+        pv.ensure_variant("llvm_ad_mono")
     assert "DRJIT_LIBLLVM_PATH" in str(info.value)
 
 

@@ -22,6 +22,7 @@ from mitsar.model.doublelobe import (
 from mitsar.model.fresnel import reflectance
 from mitsar.model.geometry.antenna import direction_sines, one_way_pattern
 from mitsar.model.geometry.attitude import antenna_frame
+from mitsar.plugins.kind import PluginKind, plugin_kind
 from mitsar.quality.impulse import measure_impulse_response
 from mitsar.raw.traced import trace
 from mitsar.scene.canned import SIONNA_ROOM
@@ -202,7 +203,7 @@ def test_canned_sionna_room_loads_with_its_materials():
     assert surfaces["target"].material is None
     assert surfaces["floor"].area == pytest.approx(40.0)
     bsdf = surfaces["floor"].shape.bsdf()
-    assert bsdf.MITSAR_KIND == "doublelobe"
+    assert plugin_kind(bsdf) is PluginKind.DOUBLELOBE
     # The plugin's Dr.Jit σ⁰ follows the NumPy material (float32 and table interpolation).
     cos = np.cos(np.radians([10.0, 35.0, 60.0]))
     np.testing.assert_allclose(np.asarray(bsdf.sigma0_monostatic(mi.Float(cos))),

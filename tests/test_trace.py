@@ -250,7 +250,7 @@ def test_point_target_on_a_floor_is_not_shadowed_by_it(tmp_path):
 # --- parameters --------------------------------------------------------------------------------
 
 def test_integrator_rejects_unknown_parameters_and_unsupported_depth(tmp_path):
-    from mitsar.scene import register_plugins
+    from mitsar.plugins.variant import register_plugins
 
     register_plugins()
     with pytest.raises(Exception, match="bogus"):

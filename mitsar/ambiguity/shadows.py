@@ -13,7 +13,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mitsar.ambiguity.points import unit_rows
-from mitsar.scene.variant import import_mitsuba
+from mitsar.plugins.variant import import_mitsuba
 
 __all__ = ["planes_scene", "visible"]
 

@@ -11,12 +11,15 @@ module                                kind       XML type name
 ``integrators.radar`` (by stage)      integrator ``radar``: range histograms of an acquisition
 ===================================== ========== ==============================================
 
-Each plugin module (listed in :data:`mitsar.scene.variant.PLUGIN_MODULES`) exposes
+Each plugin module (listed in :data:`mitsar.plugins.variant.PLUGIN_MODULES`) exposes
 ``register()``, which registers its plugin for the *active* Mitsuba variant (Python plugin
 classes are tied to the variant they were created in; :class:`PerVariant` makes one class per
-variant). Call :func:`mitsar.scene.register_plugins` rather than these directly: it picks and
-checks the variant and registers again when the variant changes. :mod:`mitsar.plugins.ops` holds
-Dr.Jit's side of the ``ops`` namespace (:mod:`mitsar.model.ops`).
+variant). Call :func:`mitsar.plugins.variant.register_plugins` rather than these directly: it
+picks and checks the variant and registers again when the variant changes. Each plugin class
+carries a typed marker, :class:`mitsar.plugins.kind.PluginKind`, that the stages above read with
+:func:`~mitsar.plugins.kind.plugin_kind`. :mod:`mitsar.plugins.ops` holds Dr.Jit's side of the
+``ops`` namespace (:mod:`mitsar.model.ops`). The plugins import only :mod:`mitsar.model` and
+the ground floor (``errors``, ``checks``, ``backend``); the scene and raw stages sit above them.
 
 This module holds the small helpers the plugins share to read and check their XML properties;
 it does not import Mitsuba.

@@ -1,6 +1,7 @@
 """Dr.Jit's side of the ``ops`` namespace (:mod:`mitsar.model.ops`) for the active variant.
 
-Imported by the plugins only, after a Mitsuba variant is set (:func:`mitsar.scene.ensure_variant`).
+Imported by the plugins only, after a Mitsuba variant is set
+(:func:`mitsar.plugins.variant.ensure_variant`).
 """
 
 from __future__ import annotations

@@ -31,24 +31,20 @@ from mitsar.model.geometry.navigation import (
 from mitsar.model.geometry.sweeps import SweepGeometry
 from mitsar.model.geometry.trajectory import Trajectory
 from mitsar.model.radar import Radar
+from mitsar.model.scatterers import ScattererSet, empty_scatterers, range_limits
 from mitsar.model.signal import sweep_count
 from mitsar.model.trace_options import TraceOptions
 from mitsar.plugins.integrators.radar import make_setup
+from mitsar.plugins.kind import PluginKind, plugin_kind
 from mitsar.plugins.threads import deterministic_threads
+from mitsar.plugins.variant import register_plugins
 from mitsar.raw.physical_optics import FacetEchoes
 from mitsar.raw.product import (
     GEOMETRY_BYTES_PER_SWEEP,
     require_raw_memory,
     sweep_geometry,
 )
-from mitsar.scene import (
-    ScattererSet,
-    collect_scatterers,
-    empty_scatterers,
-    load_scene,
-    range_limits,
-    register_plugins,
-)
+from mitsar.scene import collect_scatterers, load_scene
 from mitsar.scene.facets import FacetSet, scene_facets
 from mitsar.scene.motion import SceneMotion, parse_motion, surface_velocities
 
@@ -376,7 +372,7 @@ caches the scene's scatterers, so tracing a loaded scene again does not resample
 def _radar_integrator(scene: Any, mi: Any) -> Any:
     """The scene's ``radar`` integrator if the XML declares one, else a default one."""
     integrator = scene.integrator()
-    if getattr(integrator, "MITSAR_KIND", None) == "radar":
+    if plugin_kind(integrator) is PluginKind.RADAR:
         return integrator
     if id(scene) not in _DEFAULT_INTEGRATORS:
         while len(_DEFAULT_INTEGRATORS) >= 2:

@@ -20,8 +20,9 @@ from mitsar.io import check_writable
 from mitsar.model.signal import sweep_count
 from mitsar.plots.figures import save_figure
 from mitsar.plots.preview import plot_preview
+from mitsar.plugins.variant import import_mitsuba
 from mitsar.raw.product import sweep_geometry
-from mitsar.scene import import_mitsuba, load_scene
+from mitsar.scene import load_scene
 from mitsar.scene.render import stand_in_scene
 
 __all__ = ["preview", "scene_or_stand_in"]

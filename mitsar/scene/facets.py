@@ -24,8 +24,8 @@ from numpy.typing import NDArray
 
 from mitsar.errors import ParameterError
 from mitsar.model.doublelobe import DoubleLobe
+from mitsar.plugins.variant import import_mitsuba
 from mitsar.scene.surfaces import scene_surfaces
-from mitsar.scene.variant import import_mitsuba
 
 __all__ = ["FacetSet", "scene_facets", "segments_visible"]
 

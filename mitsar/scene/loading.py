@@ -17,9 +17,9 @@ from pathlib import Path
 from typing import Any
 
 from mitsar.errors import MissingFileError, ParameterError, SceneError
+from mitsar.plugins.variant import register_plugins
 from mitsar.scene import canned
 from mitsar.scene.motion import MOTION_PROPERTIES, ShapeMotion, register_scene_motion
-from mitsar.scene.variant import register_plugins
 
 __all__ = ["load_scene"]
 

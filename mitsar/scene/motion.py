@@ -34,7 +34,8 @@ from numpy.typing import NDArray
 from mitsar.checks import vector
 from mitsar.errors import ParameterError
 from mitsar.model.geometry.rigid_motion import BodyPath, RigidMotion
-from mitsar.scene.scatterers import ScattererSet
+from mitsar.model.scatterers import ScattererSet
+from mitsar.plugins.kind import PluginKind, plugin_kind
 from mitsar.scene.surfaces import scene_surfaces
 
 __all__ = ["MOTION_KEYS", "MOTION_PROPERTIES", "PATH_KEYS", "SceneMotion", "ShapeMotion",
@@ -178,7 +179,7 @@ def scene_motion(scene: Any) -> dict[str, Motion]:
     for surface in scene_surfaces(scene):
         bsdf = surface.shape.bsdf()
         velocity = getattr(bsdf, "velocity", None)
-        if getattr(bsdf, "MITSAR_KIND", None) == "pointtarget" and surface.id \
+        if plugin_kind(bsdf) is PluginKind.POINTTARGET and surface.id \
                 and velocity is not None and any(v != 0.0 for v in velocity):
             out.setdefault(surface.id, tuple(float(v) for v in velocity))
     return out
@@ -249,8 +250,8 @@ class SceneMotion:
             self.radius[shape_id] = float(np.linalg.norm(
                 corners - self.rigid[shape_id].centre, axis=1).max())
             self.index[shape_id] = surfaces[shape_id].index
-            if self.rigid[shape_id].rotates and getattr(surfaces[shape_id].shape.bsdf(),
-                                                        "MITSAR_KIND", None) == "pointtarget":
+            if self.rigid[shape_id].rotates and plugin_kind(
+                    surfaces[shape_id].shape.bsdf()) is PluginKind.POINTTARGET:
                 raise ParameterError(where, f"motion.{shape_id}", "a velocity only for a point "
                                      "target's shape (point targets move with constant "
                                      "velocity)", "an angular velocity or a path")

@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from mitsar.errors import ParameterError
+from mitsar.plugins.kind import PluginKind, plugin_kind
 
 __all__ = ["Camera", "View", "project", "render_view", "shape_kinds", "stand_in_scene",
            "unobstructed"]
@@ -129,10 +130,10 @@ def shape_kinds(scene: Any) -> list[str]:
     kinds = []
     for shape in scene.shapes():
         bsdf = shape.bsdf()
-        kind = getattr(bsdf, "MITSAR_KIND", None)
-        if kind == "pointtarget":
+        kind = plugin_kind(bsdf)
+        if kind is PluginKind.POINTTARGET:
             kinds.append("point target")
-        elif kind == "doublelobe":
+        elif kind is PluginKind.DOUBLELOBE:
             material = getattr(bsdf, "material", None)
             absorber = material is not None and material.is_absorber
             kinds.append("absorber" if absorber else "radar surface")
@@ -156,7 +157,7 @@ def stand_in_scene(planes: list[dict] = (), points: ArrayLike = (), radius: floa
     The shapes carry Mitsuba's plain ``diffuse`` material (kind "no radar material"); the
     scene is for pictures and footprints only.
     """
-    import mitsuba as mi  # lazy: the caller has set a variant (mitsar.scene.import_mitsuba)
+    import mitsuba as mi  # lazy: the caller has set a variant (plugins.variant.import_mitsuba)
 
     content: dict[str, Any] = {"type": "scene"}
     for i, plane in enumerate(planes):

@@ -24,6 +24,7 @@ import numpy as np
 from mitsar.budget import require_memory
 from mitsar.errors import ParameterError
 from mitsar.model.doublelobe import DoubleLobe
+from mitsar.plugins.kind import PluginKind, plugin_kind
 
 __all__ = ["ScenePointTarget", "SceneSurface", "SurfaceSamples", "SurfaceScatterers",
            "regular_grid", "sample_surface_points", "sample_surface_scatterers",
@@ -60,10 +61,6 @@ class ScenePointTarget(NamedTuple):
     """XML id of the shape ("" if none)."""
 
 
-def _kind(obj: Any) -> str | None:
-    return getattr(obj, "MITSAR_KIND", None) if obj is not None else None
-
-
 def _canonical_shapes(scene: Any) -> list[Any]:
     def key(shape: Any) -> tuple:
         box = shape.bbox()
@@ -89,7 +86,7 @@ def scene_surfaces(scene: Any) -> list[SceneSurface]:
     out = []
     for index, shape in enumerate(_canonical_shapes(scene)):
         bsdf = shape.bsdf()
-        material = bsdf.material if _kind(bsdf) == "doublelobe" else None
+        material = bsdf.material if plugin_kind(bsdf) is PluginKind.DOUBLELOBE else None
         if material is not None and material.is_absorber:
             material = None
         out.append(SceneSurface(index=index, id=shape.id(), kind=shape.class_name(),
@@ -114,7 +111,7 @@ def scene_point_targets(scene: Any) -> list[ScenePointTarget]:
     out = []
     for shape in _canonical_shapes(scene):
         bsdf = shape.bsdf()
-        if _kind(bsdf) != "pointtarget":
+        if plugin_kind(bsdf) is not PluginKind.POINTTARGET:
             continue
         box = shape.bbox()
         centre = 0.5 * (np.array([float(v) for v in box.min])
@@ -496,7 +493,7 @@ def sample_surface_points(scene: Any, spacing: float, *, shapes: Sequence[str] |
     pos, nrm, area, index, names = [], [], [], [], []
     for name, surface in named:
         if ((shapes is not None and name not in shapes) or name in exclude
-                or _kind(surface.shape.bsdf()) == "pointtarget"  # a point, not a surface
+                or plugin_kind(surface.shape.bsdf()) is PluginKind.POINTTARGET  # a point
                 or surface.area <= min_area or surface.area <= 0):
             continue
         p, n, w = _regular_shape_points(surface.shape, surface.area, spacing, rng)

@@ -49,6 +49,7 @@ import mitsuba as mi
 from mitsar.model import doublelobe as dl
 from mitsar.model.doublelobe import DoubleLobe
 from mitsar.plugins import PerVariant, plugin_where, read_properties
+from mitsar.plugins.kind import PluginKind
 from mitsar.plugins.ops import DRJIT_OPS
 
 PLUGIN_NAME = "doublelobe"
@@ -77,7 +78,7 @@ def _make_class() -> type:
     class DoubleLobeBSDF(mi.BSDF):
         """Double-lobe radar material (see the module docstring)."""
 
-        MITSAR_KIND = "doublelobe"
+        PLUGIN_KIND = PluginKind.DOUBLELOBE
 
         def __init__(self, props: Any) -> None:
             mi.BSDF.__init__(self, props)

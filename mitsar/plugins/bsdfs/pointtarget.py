@@ -32,6 +32,7 @@ import mitsuba as mi
 from mitsar.checks import MAX_RCS
 from mitsar.errors import ParameterError
 from mitsar.plugins import PerVariant, parse_vector3, plugin_where, read_properties
+from mitsar.plugins.kind import PluginKind
 
 PLUGIN_NAME = "pointtarget"
 """XML type name."""
@@ -60,7 +61,7 @@ def _make_class() -> type:
     class PointTargetBSDF(mi.BSDF):
         """Ideal point scatterer marker; a black absorber for rays."""
 
-        MITSAR_KIND = "pointtarget"
+        PLUGIN_KIND = PluginKind.POINTTARGET
 
         def __init__(self, props: Any) -> None:
             mi.BSDF.__init__(self, props)

@@ -32,9 +32,10 @@ not needed (and are replaced if Sionna registered them first in the same process
 The permittivity is evaluated at ``frequency`` (94 GHz unless given): a BSDF does not know the
 radar, so a scene for another carrier sets it. Unknown parameters raise
 :class:`~mitsar.errors.ParameterError` naming ``itu-radio-material '<id>'`` and the parameter.
-The instance behaves as a ``doublelobe`` BSDF (``MITSAR_KIND = "doublelobe"``, attribute
-``material``) whose Γ² depends on the incidence: the radar integrator reads its specular field
-factor Γ(θ_i)R and its σ⁰ through θ-tables, and the Mitsuba methods interpolate a Γ² table.
+The instance behaves as a ``doublelobe`` BSDF (``PLUGIN_KIND = PluginKind.DOUBLELOBE``,
+attribute ``material``) whose Γ² depends on the incidence: the radar integrator reads its
+specular field factor Γ(θ_i)R and its σ⁰ through θ-tables, and the Mitsuba methods interpolate
+a Γ² table.
 """
 
 from __future__ import annotations

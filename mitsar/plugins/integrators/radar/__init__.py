@@ -1,7 +1,7 @@
 """The ``radar`` integrator: an FMCW SAR acquisition traced into range histograms, by stage.
 
 What it computes (docs/design.md §5.4–5.5; docs/integrator.md, docs/multipath.md): a fixed set of
-surface scatterers and the scene's point targets (:mod:`mitsar.scene.scatterers`) are traced
+surface scatterers and the scene's point targets (:mod:`mitsar.model.scatterers`) are traced
 against every sweep of an acquisition in one vectorised wavefront, in chunks of up to 128
 sweeps: static scenes one lane per scatterer and chunk (the block kernel), the others one lane
 per (scatterer, sweep) pair; multipath rays are shot and bounced per sweep of the same chunks.
@@ -23,7 +23,7 @@ module               stage                                                      
 ==================== =================================================================== ======
 
 This package imports only the modules without Mitsuba, so a configuration can be built and
-checked before a variant is chosen; :mod:`mitsar.scene.variant` imports :mod:`.integrator` once
+checked before a variant is chosen; :mod:`mitsar.plugins.variant` imports :mod:`.integrator` once
 a variant is set.
 """
 

@@ -45,6 +45,7 @@ from mitsar.plugins.integrators.radar.constants import (
     lane_pairs,
 )
 from mitsar.plugins.integrators.radar.deposit import deposit
+from mitsar.plugins.kind import PluginKind, plugin_kind
 from mitsar.plugins.ops import DRJIT_OPS
 
 
@@ -119,7 +120,7 @@ def shape_table(scene: Any, absorbers: tuple[Any, ...] = ()) -> ShapeTable:
     for ident, shape in zip(ids, shapes, strict=True):
         bsdf = shape.bsdf()
         material = getattr(bsdf, "material", None) \
-            if getattr(bsdf, "MITSAR_KIND", None) == "doublelobe" else None
+            if plugin_kind(bsdf) is PluginKind.DOUBLELOBE else None
         if material is None:
             continue
         if material.specular_fraction > 0.0 and ident not in stops:

@@ -23,9 +23,9 @@ from numpy.typing import NDArray
 from mitsar.model.geometry.sweeps import SweepGeometry
 from mitsar.model.multipath import RaySet, multipath_amplitude_constant
 from mitsar.model.radar import Radar
+from mitsar.model.scatterers import ScattererSet
 from mitsar.model.signal import radar_equation_amplitude
 from mitsar.model.trace_options import TraceOptions
-from mitsar.scene.scatterers import ScattererSet
 
 BACKSCATTER_FLOATS = ("fc", "chirp_rate", "first_range", "inv_step", "last_lower", "beta_az",
                       "beta_el", "cull_az", "cull_el", "radar_const", "rvp", "normalized",
@@ -192,7 +192,7 @@ world coordinates), one Float32 device array each."""
 
 @dataclass
 class ScattererArrays:
-    """Device arrays of a scatterer set (:class:`~mitsar.scene.scatterers.ScattererSet`), one
+    """Device arrays of a scatterer set (:class:`~mitsar.model.scatterers.ScattererSet`), one
     element per scatterer; uploaded once (:func:`scatterer_arrays`).
 
     Attributes

@@ -48,6 +48,7 @@ from mitsar.errors import MitsarError, ParameterError
 from mitsar.model import histogram as hg
 from mitsar.model.geometry.sweeps import SweepGeometry
 from mitsar.model.radar import Radar
+from mitsar.model.scatterers import ScattererSet
 from mitsar.model.trace_options import TraceOptions
 from mitsar.plugins import PerVariant, parse_vector3, plugin_where, read_properties
 from mitsar.plugins.integrators.radar import blocks, bounce
@@ -68,7 +69,7 @@ from mitsar.plugins.integrators.radar.constants import (
     scatterer_arrays,
 )
 from mitsar.plugins.integrators.radar.setup import TraceSetup, make_setup
-from mitsar.scene.scatterers import ScattererSet
+from mitsar.plugins.kind import PluginKind
 
 _NOT_AN_IMAGE = ("the 'radar' integrator makes range histograms, not images: use "
                  "mitsar.trace(...) or mitsar.simulate_scene(...)")
@@ -80,7 +81,7 @@ def _make_class() -> type:
     class RadarIntegrator(mi.SamplingIntegrator):
         """FMCW SAR histogram tracer (see the module docstring)."""
 
-        MITSAR_KIND = "radar"
+        PLUGIN_KIND = PluginKind.RADAR
 
         def __init__(self, props: Any) -> None:
             mi.SamplingIntegrator.__init__(self, props)

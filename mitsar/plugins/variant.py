@@ -4,6 +4,9 @@
 checks, once per process in a subprocess, that Dr.Jit's LLVM backend works (libLLVM >= 16).
 :func:`register_plugins` registers mitsar's plugins for the active variant, and again on every
 later variant change (Python plugin classes are tied to the variant they were created in).
+The plugin modules are imported here by name (:data:`PLUGIN_MODULES`), inside this package, once
+a variant is set; the stages above (``scene``, ``raw``) call :func:`register_plugins` and never
+name a plugin module.
 """
 
 from __future__ import annotations
@@ -14,8 +17,8 @@ from typing import Any
 from mitsar import backend
 from mitsar.errors import ParameterError
 
-__all__ = ["DEFAULT_VARIANT", "GPU_VARIANT", "SUPPORTED_VARIANTS", "ensure_variant",
-           "import_mitsuba", "register_plugins"]
+__all__ = ["DEFAULT_VARIANT", "GPU_VARIANT", "PLUGIN_MODULES", "SUPPORTED_VARIANTS",
+           "ensure_variant", "import_mitsuba", "register_plugins"]
 
 DEFAULT_VARIANT = "llvm_ad_mono"
 """Variant used when none is set and no GPU is present."""
@@ -85,7 +88,7 @@ PLUGIN_MODULES: tuple[str, ...] = ("mitsar.plugins.bsdfs.doublelobe",
                                    "mitsar.plugins.bsdfs.radio_material",
                                    "mitsar.plugins.integrators.radar.integrator")
 """The plugin modules, in registration order. They are imported by name once a variant is set
-(Mitsuba's classes exist per variant), so the scene stage names them without importing them."""
+(Mitsuba's classes exist per variant), so importing this module loads no Mitsuba."""
 
 _registered_variant: str | None = None
 _callback_installed = False
