@@ -1,6 +1,6 @@
 """Multipath by shooting and bouncing rays: the pure formulas (docs/design.md §5.4 mechanism 2).
 
-The ``radar`` integrator (``mitsar/plugins/radar.py``) traces a fixed set of rays per sweep and
+The ``radar`` integrator (``plugins/integrators/radar/``) traces a fixed set of rays per sweep and
 evaluates, in Dr.Jit, the formulas written here in NumPy; the tests call these functions directly
 and compare the tracer against the image-method closed forms at the end of this module.
 ``docs/multipath.md`` explains the model; in short:

@@ -29,6 +29,7 @@ __all__ = [
     "TABLE_SIZE",
     "closed_form_coefficients",
     "interp_theta_table",
+    "is_closed_form",
     "lobe_integral",
     "lobe_integral_closed_form",
     "lobe_integral_quadrature",
@@ -121,7 +122,9 @@ def closed_form_coefficients(alpha: int) -> tuple[float, tuple[float, ...]]:
     return even, tuple(q)
 
 
-def _is_closed_form(alpha: float) -> bool:
+def is_closed_form(alpha: float) -> bool:
+    """Whether a lobe of exponent ``alpha`` has the closed-form integral (an integer from 1 to
+    :data:`CLOSED_FORM_ALPHA_MAX`); otherwise :func:`lobe_integral_table` interpolates it."""
     return float(alpha).is_integer() and 1 <= alpha <= CLOSED_FORM_ALPHA_MAX
 
 
@@ -284,7 +287,7 @@ def lobe_integral(alpha: float, cos_theta_i: Any, ops: Any = NUMPY_OPS,
     array_like
         ``F_α(θ_i)`` [sr].
     """
-    if _is_closed_form(alpha):
+    if is_closed_form(alpha):
         return lobe_integral_closed_form(int(alpha), cos_theta_i, ops)
     if table is None:
         table = lobe_integral_table(alpha, table_size)

@@ -108,7 +108,7 @@ def _make_class() -> type:
             self._s2 = m.scattering**2
             self._tables = {}
             for alpha in {m.alpha_b, m.alpha_f}:
-                if not dl._is_closed_form(alpha):
+                if not dl.is_closed_form(alpha):
                     self._tables[alpha] = mi.Float(dl.lobe_integral_table(alpha))
 
         def _gamma2_at(self, cos_theta_i: Any) -> Any:
