@@ -8,6 +8,7 @@ from typing import Any
 from mitsar.cli.ambiguity import cmd_ambiguity
 from mitsar.cli.campaigns import cmd_montecarlo, cmd_sweep
 from mitsar.cli.demo import cmd_demo, demo_examples
+from mitsar.cli.interferometry import cmd_interferogram
 from mitsar.cli.report import cmd_report, cmd_run
 from mitsar.cli.scene import cmd_preview, cmd_rays
 from mitsar.cli.stages import (
@@ -147,6 +148,31 @@ def build_parser() -> argparse.ArgumentParser:
                      help=f"ISLR side-lobe extent: {', '.join(ISLR_EXTENTS)} or a number of "
                      "cells (default: from the experiment, else 'paper')")
     sub.add_argument("--json", action="store_true", help="print JSON instead of a table")
+
+    sub = commands.add_parser("interferogram", parents=[common],
+                              help="interferogram, heights and point cloud of a multi-channel "
+                              "image", description="Interferogram of two channels of a "
+                              "multi-channel image (BPA of a radar with several receivers): "
+                              "writes DIR/interferogram.nc, DIR/points.ply and maps of the "
+                              "phase, coherence, unwrapped phase, height and height noise "
+                              "(docs/interferometry.md). Options default to the image's "
+                              "[interferometry] table, else the values shown.",
+                              formatter_class=_HELP)
+    sub.add_argument("image", metavar="IMAGE.nc")
+    sub.add_argument("-o", "--output", required=True, metavar="DIR", help="output folder")
+    sub.add_argument("--overwrite", action="store_true", help="replace existing outputs")
+    sub.add_argument("--pair", type=int, nargs=2, metavar=("K1", "K2"),
+                     help="channels of s1 s2* (default: [interferometry] pair, else 0 1)")
+    sub.add_argument("--looks", type=int, nargs=2, metavar=("ROWS", "COLS"),
+                     help="multilook window [pixels] (default: [interferometry] looks, else "
+                     "1 1)")
+    sub.add_argument("--no-unwrap", action="store_true",
+                     help="take the wrapped phase (no SNAPHU): scatterers within half an "
+                     "ambiguity height of the focusing grid")
+    sub.add_argument("--min-coherence", type=float, metavar="GAMMA",
+                     help="coherence below which pixels are not unwrapped and not in the "
+                     "point cloud (default: [interferometry] min_coherence, else 0.3)")
+    sub.set_defaults(func=cmd_interferogram)
 
     sub = _file_command(commands, common, "plot", cmd_plot, "plot a product file",
                         "Plot a product: raw/range-compressed -> range-compressed matrix; "
