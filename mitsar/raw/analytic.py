@@ -264,7 +264,7 @@ def _phase_centres(trajectory: Trajectory, absolute_time: NDArray,
     that instant (:func:`mitsar.model.geometry.attitude.body_to_world`); ``None`` for the
     receiver of a monostatic channel (it is the transmitter)."""
     platform = trajectory.position(absolute_time)
-    if offsets is None:
+    if offsets is None or not (np.any(offsets[0]) or np.any(offsets[1])):
         return platform, None
     rotation = body_to_world(*np.moveaxis(trajectory.attitude_at(absolute_time), -1, 0))
     transmitter = platform + rotation @ offsets[0]
