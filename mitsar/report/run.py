@@ -11,7 +11,10 @@
    traces a scene with ``max_depth > 1``
    (:func:`mitsar.experiment.rays.run_rays`), then **focused** with every requested algorithm
    (``image_<algorithm>.nc`` and figures), **measured** at its target (IRW, PSLR, ISLR, with the
-   cuts), and optionally put through a **Monte Carlo** over background realisations;
+   cuts), and optionally put through a **Monte Carlo** over background realisations; a radar
+   with two or more receive channels also gets the **interferogram** of its BPA image
+   (``[interferometry]``; :mod:`mitsar.experiment.interferometry`: ``interferometry/`` with
+   the product, the point cloud and the maps);
 3. the run record ``run.json`` (configuration, metrics, figures, timings, seeds, versions) and
    ``report.html`` (:func:`mitsar.report.html.build_report`) are written last.
 
@@ -30,8 +33,15 @@ from typing import Any
 import numpy as np
 
 from mitsar.ambiguity.run import run_ambiguity_experiment
-from mitsar.errors import ParameterError
+from mitsar.errors import MitsarError, ParameterError
 from mitsar.experiment import montecarlo
+from mitsar.experiment.interferometry import (
+    INTERFEROMETRY_FILES,
+    interferometry_figure_entries,
+    interferometry_summary,
+    run_interferometry,
+    write_interferometry,
+)
 from mitsar.experiment.loading import apply_overrides, experiment_from_dict, read_toml
 from mitsar.experiment.options import ALGORITHMS, Experiment
 from mitsar.experiment.paper import paper_table
@@ -41,7 +51,7 @@ from mitsar.plots import navigation as plots_navigation
 from mitsar.plots.footprint import plot_footprint
 from mitsar.plots.preview import plot_preview
 from mitsar.report.html import RUN_RECORD, build_report, provenance
-from mitsar.report.pipeline import RunFolder, run_pipeline
+from mitsar.report.pipeline import PipelineResult, RunFolder, run_pipeline
 from mitsar.report.preview import scene_or_stand_in
 from mitsar.scene import load_scene
 
@@ -143,8 +153,11 @@ def _experiment(run: RunFolder, experiment: Experiment, algorithms: Sequence[str
     # The scene is loaded once, here, for every figure that draws it.
     scene = None if experiment.scene is None else load_scene(experiment.scene)
     # 1. simulate, 2. figures of the acquisition, 3. focus and measure with every algorithm
-    run_pipeline(run, experiment, chosen, scene=scene, progress=progress,
-                 after_simulation=lambda raw: _acquisition_figures(run, experiment, raw, scene))
+    result = run_pipeline(run, experiment, chosen, scene=scene, progress=progress,
+                          after_simulation=lambda raw: _acquisition_figures(run, experiment,
+                                                                            raw, scene))
+    if experiment.radar.channel_count >= 2:
+        _interferometry(run, experiment, result, progress)
     # 4. Monte Carlo
     if realisations > 0:
         start = time.perf_counter()
@@ -161,6 +174,39 @@ def _experiment(run: RunFolder, experiment: Experiment, algorithms: Sequence[str
                 "file": file, "title": f"Realisations, {algorithm.upper()}",
                 "caption": "range and azimuth cuts of several realisations over the response "
                            "on an absorbing background (paper Figs. 8-9)"})
+
+
+INTERFEROMETRY_FOLDER = "interferometry"
+"""Sub-folder of a run folder with the interferometry outputs."""
+
+
+def _interferometry(run: RunFolder, experiment: Experiment, result: PipelineResult,
+                    progress: bool) -> None:
+    """The interferogram of the BPA image of a multi-channel radar, its point cloud and maps
+    (:func:`mitsar.experiment.interferometry.write_interferometry`) into
+    :data:`INTERFEROMETRY_FOLDER`; ``record["interferometry"]`` holds the summary and the point
+    cloud's file, the maps are figures of the section "Interferometry"."""
+    image = result.images.get("bpa")
+    if image is None:
+        run.warn("interferometry: not formed: it needs the BPA image of the channels (the only "
+                 "focuser of several channels): run with -a bpa")
+        return
+    start = time.perf_counter()
+    try:
+        formed = run_interferometry(image, experiment.interferometry, where="interferometry",
+                                    quiet=not progress)
+        write_interferometry(run.out / INTERFEROMETRY_FOLDER, formed, overwrite=run.overwrite)
+    except MitsarError as error:
+        run.warn(f"interferometry: not formed: {error}")
+        return
+    run.step("interferometry", start)
+    prefix = f"{INTERFEROMETRY_FOLDER}/"
+    run.record["products"] += [prefix + INTERFEROMETRY_FILES[k]
+                               for k in ("interferogram", "points")]
+    run.record["figures"] += [dict(entry, section="Interferometry")
+                              for entry in interferometry_figure_entries(prefix)]
+    run.record["interferometry"] = {"summary": interferometry_summary(formed),
+                                    "points": prefix + INTERFEROMETRY_FILES["points"]}
 
 
 def _acquisition_figures(run: RunFolder, experiment: Experiment, raw: Any,
