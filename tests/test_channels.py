@@ -283,3 +283,13 @@ def test_traced_room_box_and_floor_heights_within_their_predicted_noise(tmp_path
         assert abs(np.median(error)) < 2 * np.median(sigma), (low, np.median(error))
         assert np.mean(np.abs(error) < 2 * sigma) >= 0.7, (low, error, sigma)
         assert np.std(error) == pytest.approx(np.median(sigma), rel=0.6), (low, error)
+
+
+def test_body_offsets_rotate_as_the_body_frame():
+    """The phase centres' rotation (element-wise, no matrices) is body_to_world(...) @ offset."""
+    from mitsar.model.geometry.attitude import body_offset_to_world, body_to_world
+
+    angles = np.random.default_rng(0).uniform(-3.0, 3.0, (50, 3))
+    offset = np.array([0.01, -0.02, 0.05])
+    np.testing.assert_allclose(body_offset_to_world(offset, *angles.T),
+                               body_to_world(*angles.T) @ offset, rtol=0, atol=1e-16)

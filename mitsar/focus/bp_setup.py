@@ -33,7 +33,7 @@ from mitsar.focus.aperture import (
 from mitsar.focus.compression import range_spectrum
 from mitsar.focus.grid import track_frame
 from mitsar.focus.windows import window_coefficients
-from mitsar.model.geometry.attitude import body_to_world
+from mitsar.model.geometry.attitude import body_offset_to_world
 from mitsar.model.radar import Radar
 from mitsar.model.signal import fast_time
 from mitsar.products.raw import radar_of
@@ -96,18 +96,18 @@ def channel_phase_centres(raw: xr.Dataset) -> tuple[NDArray, NDArray | None]:
     a multi-channel product (:func:`mitsar.focus.channels.channel_view`) carries its
     body-frame ``transmitter_offset`` and ``receiver_offset`` [m]: each is placed at the track
     point plus the offset rotated by the sweep's attitude
-    (:func:`mitsar.model.geometry.attitude.body_to_world`), as the simulators do.
+    (:func:`mitsar.model.geometry.attitude.body_offset_to_world`), as the simulators do.
     """
     positions = np.asarray(raw["platform_position"].values, dtype=float)
     if "transmitter_offset" not in raw.variables:
         return positions, None
-    rotation = body_to_world(*np.asarray(raw["attitude"].values, dtype=float).T)
+    attitude = np.asarray(raw["attitude"].values, dtype=float).T
     transmitter_offset = np.asarray(raw["transmitter_offset"].values, dtype=float)
     receiver_offset = np.asarray(raw["receiver_offset"].values, dtype=float)
-    transmitters = positions + rotation @ transmitter_offset
+    transmitters = positions + body_offset_to_world(transmitter_offset, *attitude)
     if np.array_equal(transmitter_offset, receiver_offset):
         return transmitters, None
-    return transmitters, positions + rotation @ receiver_offset
+    return transmitters, positions + body_offset_to_world(receiver_offset, *attitude)
 
 
 def prepare(raw: xr.Dataset, *, half_width: float, window: str, range_window: str,

@@ -25,7 +25,7 @@ from mitsar.checks import integer
 from mitsar.checks import seed as check_seed
 from mitsar.errors import ParameterError
 from mitsar.model.geometry.antenna import two_way_pattern
-from mitsar.model.geometry.attitude import Look, antenna_frame, body_to_world
+from mitsar.model.geometry.attitude import Look, antenna_frame, body_offset_to_world
 from mitsar.model.geometry.navigation import (
     NavigationErrors,
     describe_navigation,
@@ -261,16 +261,16 @@ def _phase_centres(trajectory: Trajectory, absolute_time: NDArray,
                    offsets: tuple[NDArray, NDArray] | None) -> tuple[NDArray, NDArray | None]:
     """World positions [m] of the transmitter and, for a bistatic channel, the receiver at
     each sample time: the track's point plus the body-frame offsets rotated by the attitude at
-    that instant (:func:`mitsar.model.geometry.attitude.body_to_world`); ``None`` for the
+    that instant (:func:`mitsar.model.geometry.attitude.body_offset_to_world`); ``None`` for the
     receiver of a monostatic channel (it is the transmitter)."""
     platform = trajectory.position(absolute_time)
     if offsets is None or not (np.any(offsets[0]) or np.any(offsets[1])):
         return platform, None
-    rotation = body_to_world(*np.moveaxis(trajectory.attitude_at(absolute_time), -1, 0))
-    transmitter = platform + rotation @ offsets[0]
+    attitude = np.moveaxis(trajectory.attitude_at(absolute_time), -1, 0)
+    transmitter = platform + body_offset_to_world(offsets[0], *attitude)
     if np.array_equal(offsets[0], offsets[1]):
         return transmitter, None
-    return transmitter, platform + rotation @ offsets[1]
+    return transmitter, platform + body_offset_to_world(offsets[1], *attitude)
 
 
 def _all_zero_error() -> ParameterError:

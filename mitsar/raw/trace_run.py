@@ -22,7 +22,7 @@ from tqdm.auto import tqdm
 from mitsar.budget import require_memory
 from mitsar.errors import ParameterError
 from mitsar.model import histogram as hg
-from mitsar.model.geometry.attitude import Look, antenna_frame, body_to_world
+from mitsar.model.geometry.attitude import Look, antenna_frame, body_offset_to_world
 from mitsar.model.geometry.navigation import (
     NavigationErrors,
     describe_navigation,
@@ -196,11 +196,12 @@ class TraceRun:
                                  self.config.max_depth if self.config.max_depth > 1
                                  else self.config.receiver_offset)
         transmitters, receivers = radar.channel_offsets()
-        rotation = body_to_world(*self.geometry.attitude.T)
-        transmitter = self.geometry.position + rotation @ np.asarray(transmitters[channel])
+        attitude = self.geometry.attitude.T
+        transmitter = self.geometry.position + body_offset_to_world(transmitters[channel],
+                                                                    *attitude)
         if transmitters[channel] != receivers[channel]:
             self.setup = dataclasses.replace(self.setup, channel_receivers=(
-                self.geometry.position + rotation @ np.asarray(receivers[channel])))
+                self.geometry.position + body_offset_to_world(receivers[channel], *attitude)))
         return channel, dataclasses.replace(self.geometry, position=transmitter)
 
     def _facets(self, where: str, physical_optics: Any) -> FacetSet | None:

@@ -70,6 +70,39 @@ def body_to_world(heading: ArrayLike, pitch: ArrayLike, roll: ArrayLike) -> NDAr
     return rotation_z(heading) @ rotation_y(-pitch) @ rotation_x(roll)
 
 
+def body_offset_to_world(offset: ArrayLike, heading: ArrayLike, pitch: ArrayLike,
+                         roll: ArrayLike) -> NDArray[np.float64]:
+    """A body-frame vector in the world frame: ``body_to_world(heading, pitch, roll) @ offset``.
+
+    The three rotations of :func:`body_to_world` applied one after the other to the vector
+    (``Rx(roll)``, then ``Ry(-pitch)``, then ``Rz(heading)``), element-wise, without forming
+    the matrices: ~10x faster for one vector at many attitudes (the phase centres of a
+    multi-channel radar at every sample, docs/interferometry.md).
+
+    Parameters
+    ----------
+    offset : array_like, shape (3,)
+        Body-frame vector [m].
+    heading, pitch, roll : array_like
+        Attitude angles [rad], broadcast together.
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+    """
+    x, y, z = (float(v) for v in np.asarray(offset, dtype=float).reshape(3))
+    heading, pitch, roll = np.broadcast_arrays(np.asarray(heading, float),
+                                               np.asarray(pitch, float),
+                                               np.asarray(roll, float))
+    cr, sr = np.cos(roll), np.sin(roll)
+    y, z = cr * y - sr * z, sr * y + cr * z                 # Rx(roll)
+    cp, sp = np.cos(pitch), np.sin(pitch)
+    x, z = cp * x - sp * z, sp * x + cp * z                 # Ry(-pitch)
+    ch, sh = np.cos(heading), np.sin(heading)
+    x, y = ch * x - sh * y, sh * x + ch * y                 # Rz(heading)
+    return np.stack(np.broadcast_arrays(x, y, z), axis=-1)
+
+
 @dataclass(frozen=True)
 class Look(metaclass=KnownFields):
     """Antenna mounting on the platform: off-nadir and squint angles.
