@@ -9,23 +9,12 @@ by shooting and bouncing rays (``docs/multipath.md``) -- and returns the *histog
 :func:`simulate_scene` traces and synthesises while streaming over sweep chunks, optionally
 adding analytic point targets and a background from :func:`mitsar.simulate_point_targets`.
 
-Histogram product
------------------
-``histogram`` (sweep, order, bin) complex
-    Sum of the deposits ``a exp{j 2 pi (f_c tau_0 - K tau_0^2/2 + phi)}`` at each apparent range
-    bin [sqrt(W)]. ``order`` is the number of specular reflections on the path (0: direct
-    backscatter; 1: e.g. a mirror; 2: dihedral; 3: trihedral), ``0 .. max_depth - 1``.
-``apparent_range`` (bin) [m]
-    ``(k_0 + j) dr``, ``dr`` = range cell / ``bins_per_cell`` (:mod:`mitsar.model.histogram`).
-``slow_time``, ``platform_position``, ``platform_velocity``, ``boresight``, ``attitude``
-    As in the raw product; ``sweep`` holds the absolute sweep indices of the acquisition.
-attributes
-    ``radar_*``, ``look_*``, ``product = "histogram"``, ``rvp``, ``normalized``, ``seed``,
-    ``scatterer_count``, ``point_target_count``, ``scatterer_density``, ``bins_per_cell``,
-    ``histogram_first_index``, ``acquisition_sweeps``, ``integrator`` (JSON), ``scene``,
-    ``traced_pairs``, ``traced_candidate_pairs``, ``traced_shadow_rays``, ``traced_launches``,
-    ``traced_rays``, ``traced_segments``, ``traced_captures`` (work counters), ``backscatter``,
-    ``receiver_offset``, ``rays_per_sweep``, provenance.
+The histogram product's layout (``histogram`` (sweep, order, bin), ``apparent_range``, the
+track, the tracer's attributes and work counters) is
+:data:`~mitsar.products.histogram.HISTOGRAM_SCHEMA`, described in
+:mod:`mitsar.products.histogram`; a multi-channel radar's channel traced by :func:`trace` adds
+``channel`` and its ``transmitter_offset`` / ``receiver_offset``. Every option of a trace is a
+field of the one trace request, :class:`mitsar.model.trace_options.TraceOptions`.
 """
 
 from __future__ import annotations
