@@ -55,14 +55,26 @@ __all__ = ["TraceRun"]
 # Set-up shared by trace and simulate_scene
 # --------------------------------------------------------------------------------------------
 
-def _scene_scatterers(integrator: Any, scene: Any, density: float, seed: int) -> ScattererSet:
-    """The scene's scatterers for ``density`` and ``seed``, kept on the scene's integrator so
-    that repeated traces of one scene reuse the draw and its device arrays."""
+_SCATTERER_SETS: dict[tuple[int, float, int], tuple[Any, ScattererSet]] = {}
+"""The scatterer sets of recently traced scenes, ``(id(scene), density, seed) -> (scene, set)``
+(the scene is held so that its id is not reused while the entry lives); at most
+:data:`SCATTERER_SETS_KEPT`, the oldest dropped first."""
+
+SCATTERER_SETS_KEPT = 2
+"""Scatterer sets kept between traces (each holds its device arrays: ~100 MB for the paper's
+room at the default density)."""
+
+
+def _scene_scatterers(scene: Any, density: float, seed: int) -> ScattererSet:
+    """The scene's scatterers for ``density`` and ``seed``, kept here (not on the plugin) so
+    that repeated traces of one loaded scene, and the channels of one acquisition, reuse the
+    draw and its device arrays."""
     key = (id(scene), float(density), int(seed))
-    if integrator.cache.get("key") != key:
-        integrator.cache.clear()
-        integrator.cache.update(key=key, scatterers=collect_scatterers(scene, density, seed))
-    return integrator.cache["scatterers"]
+    if key not in _SCATTERER_SETS:
+        while len(_SCATTERER_SETS) >= SCATTERER_SETS_KEPT:
+            _SCATTERER_SETS.pop(next(iter(_SCATTERER_SETS)))
+        _SCATTERER_SETS[key] = (scene, collect_scatterers(scene, density, seed))
+    return _SCATTERER_SETS[key][1]
 
 
 class TraceRun:
@@ -130,8 +142,8 @@ class TraceRun:
                                  "backscatter is traced monostatically only)", self.backscatter)
         self.receiver_look = receiver_look
         if self.backscatter:
-            self.scatterers = _scene_scatterers(self.integrator, self.scene,
-                                                self.config.density(radar), self.config.seed)
+            self.scatterers = _scene_scatterers(self.scene, self.config.density(radar),
+                                                self.config.seed)
         else:  # multipath only: no surface scatterers to sample
             self.scatterers = empty_scatterers(self.config.density(radar), self.config.seed)
         # Moving shapes (docs/integrator.md §Moving objects): their scatterers get their velocity.

@@ -19,6 +19,7 @@ field of the one trace request, :class:`mitsar.model.trace_options.TraceOptions`
 
 from __future__ import annotations
 
+import dataclasses
 import warnings
 from collections.abc import Sequence
 from typing import Any
@@ -314,8 +315,13 @@ def simulate_scene(radar: Radar, trajectory: Trajectory, look: Look, scene: Any,
     # the scene's scatterers are drawn once (cached on its integrator) and shared.
     channels = range(radar.channel_count) if radar.has_channels else [None]
     traced = [_trace_raw(TraceRun("simulate_scene", radar, trajectory, look, scene,
-                                  request if k is None else request.replace(channel=k),
-                                  navigation, motion)) for k in channels]
+                                  request if channels[0] is None
+                                  else request.replace(channel=channels[0]),
+                                  navigation, motion))]
+    for k in channels[1:]:  # the first channel's loaded scene: its scatterers are reused
+        shared = dataclasses.replace(request, channel=k, scene_params=None)
+        traced.append(_trace_raw(TraceRun("simulate_scene", radar, trajectory, look,
+                                          traced[0][0].scene, shared, navigation, motion)))
     run, kept = traced[0][0], traced[0][2]
     samples = (np.stack([samples for _, samples, _ in traced]) if radar.has_channels
                else traced[0][1])

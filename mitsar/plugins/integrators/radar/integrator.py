@@ -93,7 +93,6 @@ def _make_class() -> type:
             # the XML's layer of the trace request, and the request it makes on its own
             self.options = TraceOptions.from_xml(values, self._where)
             self.config = self.options.resolve(self._where)
-            self.cache: dict = {}  # the orchestration keeps the scene's scatterer set here
             self.statistics: dict[str, int] = {}
 
         # ---- Mitsuba interface --------------------------------------------------------
