@@ -8,11 +8,14 @@
   :class:`~mitsar.model.scatterers.ScattererSet` (what the radar integrator traces for direct
   backscatter).
 - :mod:`mitsar.scene.meshes`: :func:`box_mesh`, :func:`write_ply`.
+- :mod:`mitsar.scene.masks`: :func:`layover_shadow_masks`, an image's layover and shadow masks
+  from the scene's geometry (docs/interferometry.md).
 - :mod:`mitsar.scene.motion`: moving shapes (:class:`~mitsar.scene.motion.SceneMotion`).
 - :mod:`mitsar.scene.canned`: the bundled XML scenes.
 """
 
 from mitsar.scene.loading import load_scene
+from mitsar.scene.masks import layover_shadow_masks
 from mitsar.scene.meshes import box_mesh, write_ply
 from mitsar.scene.scatterers import collect_scatterers
 from mitsar.scene.surfaces import (
@@ -27,5 +30,5 @@ from mitsar.scene.surfaces import (
 )
 
 __all__ = ["ScenePointTarget", "SceneSurface", "SurfaceSamples", "SurfaceScatterers", "box_mesh",
-           "collect_scatterers", "load_scene", "sample_surface_points",
+           "collect_scatterers", "layover_shadow_masks", "load_scene", "sample_surface_points",
            "sample_surface_scatterers", "scene_point_targets", "scene_surfaces", "write_ply"]
