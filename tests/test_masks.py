@@ -170,3 +170,35 @@ def test_masks_refuse_an_image_without_its_geometry():
     """An image without the aperture is refused, naming the missing variable."""
     with pytest.raises(ParameterError, match="aperture_position"):
         layover_shadow_masks("dihedral", _image().drop_vars("aperture_position"))
+
+
+def test_interferometry_step_leaves_out_and_keeps_the_scene_masks(tmp_path):
+    """The interferogram step of ``mitsar run`` with a scene: the masked pixels have no height
+    (left out through ``interferogram(mask=...)``), the masks are variables of the product on
+    the image's full grid, and they survive interferogram.nc."""
+    from mitsar.experiment.interferometry import (
+        InterferometryOptions,
+        interferometry_summary,
+        run_interferometry,
+        write_interferometry,
+    )
+    from mitsar.io import load
+
+    image = _image()
+    image["image"] = (("channel", "v", "u"), np.ones((2, Y.size, X.size), complex))
+    path = tmp_path / "wall.xml"
+    path.write_text(_scene(FLOOR, WALL.format(half=0.15, y0=6.6)))
+    options = InterferometryOptions(looks=(1, 1), unwrap=False)
+    result = run_interferometry(image, options, scene=str(path), quiet=True)
+    ifg = result.interferogram
+    mask = ifg["layover_shadow_mask"].values
+    assert ifg["layover_shadow_mask"].dims == ("image_v", "image_u")
+    assert 0 < mask.sum() < mask.size
+    assert np.all(np.isnan(ifg["height"].values[mask]))
+    assert np.all(np.isfinite(ifg["height"].values[~mask]))
+    summary = interferometry_summary(result)
+    assert summary["shadow_fraction"] == pytest.approx(ifg["shadow"].values.mean())
+    paths = write_interferometry(tmp_path / "out", result)
+    saved = load(paths["interferogram"])
+    assert np.array_equal(saved["layover_shadow_mask"].values.astype(bool), mask)
+    assert saved.attrs["mask_range_window"] == pytest.approx(DELTA)

@@ -4,7 +4,9 @@ image in, the interferogram product, its point cloud and its figures out, with a
 :func:`run_interferometry` forms the interferogram of two channels
 (:func:`mitsar.interferometry.interferogram`, with the options of ``[interferometry]``,
 :class:`~mitsar.experiment.options.InterferometryOptions`) and its point cloud
-(:func:`mitsar.interferometry.point_cloud`); :func:`write_interferometry` writes them into a
+(:func:`mitsar.interferometry.point_cloud`), with the layover and shadow masks of the scene's
+geometry left out when the experiment has a scene (:func:`mitsar.scene.layover_shadow_masks`,
+kept in the product as :data:`MASK_VARIABLES`); :func:`write_interferometry` writes them into a
 folder (:data:`INTERFEROMETRY_FILES`: ``interferogram.nc`` through :func:`mitsar.io.save`,
 ``points.ply``, one PNG a map of :data:`mitsar.plots.interferometry.INTERFEROGRAM_MAPS`), each
 atomically and never over an existing file unless asked; :func:`interferometry_summary` gives
@@ -30,10 +32,12 @@ from mitsar.interferometry import interferogram, point_cloud, write_ply
 from mitsar.io import check_writable, save
 from mitsar.plots.figures import save_figure
 from mitsar.plots.interferometry import INTERFEROGRAM_MAPS, interferogram_figures
+from mitsar.scene.masks import layover_shadow_masks
 
-__all__ = ["INTERFEROMETRY_FILES", "InterferometryResult", "check_multichannel",
-           "format_interferometry_summary", "interferometry_figure_entries",
-           "interferometry_summary", "run_interferometry", "write_interferometry"]
+__all__ = ["INTERFEROMETRY_FILES", "MASK_VARIABLES", "InterferometryResult",
+           "check_multichannel", "format_interferometry_summary",
+           "interferometry_figure_entries", "interferometry_summary", "run_interferometry",
+           "scene_masks", "write_interferometry"]
 
 INTERFEROMETRY_FILES: dict[str, str] = {
     "interferogram": "interferogram.nc",
@@ -42,6 +46,13 @@ INTERFEROMETRY_FILES: dict[str, str] = {
 }
 """Files written by :func:`write_interferometry`, by role: the product, the point cloud and
 one figure a map."""
+
+MASK_VARIABLES: dict[str, str] = {"shadow": "shadow", "layover": "layover",
+                                  "mask": "layover_shadow_mask",
+                                  "visible_surfaces": "visible_surfaces"}
+"""Variables of :func:`mitsar.scene.layover_shadow_masks` kept in the interferogram product, by
+their names there; they lie on the image's full grid, dims ``image_<ROW>``, ``image_<COL>``
+(the interferogram's own grid is multilooked)."""
 
 _CAPTIONS = {
     "phase": "flat phase s1 s2* after the reference surface (the focusing grid) is removed: "
@@ -104,8 +115,20 @@ def snaphu_log_to_stderr(quiet: bool = False) -> Iterator[None]:
         os.close(target)
 
 
+def scene_masks(scene: Any, image: xr.Dataset, options: InterferometryOptions
+                ) -> xr.Dataset:
+    """The layover and shadow masks of ``image`` in ``scene`` (a loaded scene, an XML file or
+    a canned name; :func:`mitsar.scene.layover_shadow_masks`) for the options' pair, as the
+    interferogram product keeps them (:data:`MASK_VARIABLES`, full-grid dims ``image_*``)."""
+    masks = layover_shadow_masks(scene, image, pair=options.pair)
+    rename = {str(d): f"image_{d}" for d in masks.dims}
+    out = masks.rename({**rename, **MASK_VARIABLES})
+    out.attrs = {f"mask_{key}": value for key, value in masks.attrs.items()}
+    return out
+
+
 def run_interferometry(image: xr.Dataset, options: InterferometryOptions,
-                       where: str = "interferogram", quiet: bool = False
+                       where: str = "interferogram", quiet: bool = False, scene: Any = None
                        ) -> InterferometryResult:
     """The interferogram of a multi-channel image and its point cloud.
 
@@ -120,15 +143,23 @@ def run_interferometry(image: xr.Dataset, options: InterferometryOptions,
         The file or command named in errors.
     quiet : bool
         Silence SNAPHU's log (else it goes to stderr).
+    scene : mitsuba.Scene, str or os.PathLike, optional
+        The scene the image was simulated from: its layover and shadow pixels
+        (:func:`scene_masks`) are left out of the interferogram (``mask=``) and the masks kept
+        in it.
 
     Returns
     -------
     InterferometryResult
     """
     check_multichannel(image, where)
+    masks = None if scene is None else scene_masks(scene, image, options)
     with snaphu_log_to_stderr(quiet):
         ifg = interferogram(image, pair=options.pair, looks=options.looks,
-                            unwrap=options.unwrap, min_coherence=options.min_coherence)
+                            unwrap=options.unwrap, min_coherence=options.min_coherence,
+                            mask=None if masks is None else masks[MASK_VARIABLES["mask"]].values)
+    if masks is not None:
+        ifg = ifg.assign(masks.data_vars).assign_attrs(masks.attrs)
     return InterferometryResult(ifg, point_cloud(ifg, min_coherence=options.min_coherence))
 
 
@@ -208,6 +239,8 @@ def interferometry_summary(result: InterferometryResult) -> dict[str, Any]:
         return float(value) if np.ndim(value) == 0 else [float(v) for v in value]
 
     heights = ifg["height"].values
+    fractions = {f"{name}_fraction": float(np.mean(ifg[name].values))
+                 for name in ("shadow", "layover") if name in ifg.variables}
     return {
         "pair": [int(k) for k in np.ravel(attrs["pair"])],
         "looks": [int(attrs["looks_azimuth"]), int(attrs["looks_range"])],
@@ -226,6 +259,7 @@ def interferometry_summary(result: InterferometryResult) -> dict[str, Any]:
         "brightest_position_m": at("position"),
         "brightest_height_m": at("height"),
         "brightest_height_std_m": at("height_std"),
+        **fractions,
     }
 
 
@@ -246,6 +280,9 @@ def format_interferometry_summary(summary: dict[str, Any]) -> str:
         f"{summary['median_height_std_m'] * 1e3:.3f} mm",
         f"{summary['points']} points with coherence >= {summary['min_coherence']:g}",
     ]
+    if "shadow_fraction" in summary:
+        lines.append(f"scene masks: {summary['shadow_fraction'] * 100:.1f} % of the pixels in "
+                     f"shadow, {summary['layover_fraction'] * 100:.1f} % in layover (left out)")
     if summary.get("brightest_height_m") is not None:
         lines.append(f"brightest pixel {vector(summary['brightest_pixel_position_m'])} m: "
                      f"height {summary['brightest_height_m']:.4f} m "

@@ -194,7 +194,7 @@ def _interferometry(run: RunFolder, experiment: Experiment, result: PipelineResu
     start = time.perf_counter()
     try:
         formed = run_interferometry(image, experiment.interferometry, where="interferometry",
-                                    quiet=not progress)
+                                    quiet=not progress, scene=experiment.scene)
         write_interferometry(run.out / INTERFEROMETRY_FOLDER, formed, overwrite=run.overwrite)
     except MitsarError as error:
         run.warn(f"interferometry: not formed: {error}")
