@@ -16,6 +16,7 @@ import mitsar
 from mitsar.errors import ParameterError
 from mitsar.model.radar import SPEED_OF_LIGHT
 from mitsar.model.signal import fast_time
+from mitsar.scene.masks import layover_shadow_masks
 
 TRACK = mitsar.Trajectory.linear([14.8, 1.4, 4.5], [0.5, 0.0, 0.0], 0.8)
 LOOK = mitsar.Look(55.7)
@@ -262,7 +263,15 @@ def test_traced_room_box_and_floor_heights_within_their_predicted_noise(tmp_path
     Regions from the geometry: the top at h lays over onto floor pixels h H / Y ~ 0.14 m
     nearer; the front face between; the shadow h Y / H ~ 0.3 m behind.
     Measured (seeds 1-6): median floor errors -5.5 to +7.7 mm, top -0.7 to +2.7 mm, spreads
-    6-13 mm against 8-11 mm predicted, 75-100 % within 2 sigma_h."""
+    6-13 mm against 8-11 mm predicted, 75-100 % within 2 sigma_h.
+    The scene's layover and shadow masks (mitsar.scene.layover_shadow_masks) agree: the three
+    regions are unmasked, and the masked pixels are those the geometry gives (tests/test_masks.py
+    closed forms; antenna height H = 4.5 m over the track's ground line y = 1.4 m, window delta
+    = c / 4B, box front Y0 = 5.8 m and back Y1 = 7.4 m from that line): layover over ground
+    ranges [Y(r_t - delta), Y(r_b + delta)] = [5.58, 5.86] m, shadow over
+    [Y(r_e + delta), Y(r_s - delta)] = [7.34, 7.69] m, Y(r) = sqrt(r^2 - H^2); within one
+    pixel (0.12 m). Measured: layover rows at 5.68 and 5.80 m, shadow rows at 7.36, 7.48 and
+    7.60 m, in every column: exactly the pixels inside the bands."""
     height = 0.2
     scene = tmp_path / "box_room.xml"
     scene.write_text(BOX_ROOM.format(half=height / 2))
@@ -283,6 +292,23 @@ def test_traced_room_box_and_floor_heights_within_their_predicted_noise(tmp_path
         assert abs(np.median(error)) < 2 * np.median(sigma), (low, np.median(error))
         assert np.mean(np.abs(error) < 2 * sigma) >= 0.7, (low, error, sigma)
         assert np.std(error) == pytest.approx(np.median(sigma), rel=0.6), (low, error)
+    masks = layover_shadow_masks(str(scene), image)
+    pixel_y = image["position"].values[..., 1]
+    for low, high in ((6.2, 6.85), (7.35, 8.45), (9.4, 10.4)):
+        assert not masks["mask"].values[(pixel_y >= low) & (pixel_y < high)].any(), low
+    depth, half_range = 4.5, radar.range_resolution / 2
+    front, back = 7.2 - 1.4, 8.8 - 1.4
+    r_b, r_t, r_e = np.hypot(front, depth), np.hypot(front, depth - height), np.hypot(
+        back, depth - height)
+    r_s = r_e * depth / (depth - height)
+    ground = pixel_y - 1.4
+    for name, (r_low, r_high) in (("layover", (r_t - half_range, r_b + half_range)),
+                                  ("shadow", (r_e + half_range, r_s - half_range))):
+        y_low, y_high = np.sqrt(np.array([r_low, r_high]) ** 2 - depth ** 2)
+        flagged = masks[name].values
+        assert flagged[(ground > y_low + 0.12) & (ground < y_high - 0.12)].all(), name
+        assert not flagged[(ground < y_low - 0.12) | (ground > y_high + 0.12)].any(), name
+        assert flagged.any(axis=1).sum() >= round((y_high - y_low) / 0.12) - 1, name
 
 
 def test_body_offsets_rotate_as_the_body_frame():
