@@ -270,8 +270,8 @@ def test_traced_room_box_and_floor_heights_within_their_predicted_noise(tmp_path
     = c / 4B, box front Y0 = 5.8 m and back Y1 = 7.4 m from that line): layover over ground
     ranges [Y(r_t - delta), Y(r_b + delta)] = [5.58, 5.86] m, shadow over
     [Y(r_e + delta), Y(r_s - delta)] = [7.34, 7.69] m, Y(r) = sqrt(r^2 - H^2); within one
-    pixel (0.12 m). Measured: layover rows at 5.68 and 5.80 m, shadow rows at 7.36, 7.48 and
-    7.60 m, in every column: exactly the pixels inside the bands."""
+    pixel (0.12 m). Measured: flagged pixels on the layover rows 5.68 and 5.80 m and the shadow
+    rows 7.36, 7.48 and 7.60 m only: the pixels inside the bands."""
     height = 0.2
     scene = tmp_path / "box_room.xml"
     scene.write_text(BOX_ROOM.format(half=height / 2))
