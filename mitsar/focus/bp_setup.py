@@ -36,7 +36,7 @@ from mitsar.focus.windows import window_coefficients
 from mitsar.model.geometry.attitude import body_offset_to_world
 from mitsar.model.radar import Radar
 from mitsar.model.signal import fast_time
-from mitsar.products.raw import radar_of
+from mitsar.products.raw import radar_of, sweep_rate
 
 __all__ = ["Prepared", "aperture_weights", "beat_band", "normalise", "prepare"]
 
@@ -84,6 +84,9 @@ class Prepared:
     kernel_window: NDArray[np.float64]
     frequency: NDArray[np.float64]
     profile: NDArray[np.complexfloating]
+    sweep_rate: float
+    """Rate [Hz] at which the sweeps sample the aperture: the PRF, or PRF / N_tx for one
+    TDM-MIMO channel (:func:`mitsar.products.raw.sweep_rate`)."""
     receivers: NDArray[np.float64] | None = None
     """A bistatic channel's receive phase centre per sweep [m] (``positions`` is then its
     transmitter's); None: monostatic (:func:`channel_phase_centres`)."""
@@ -146,6 +149,7 @@ def prepare(raw: xr.Dataset, *, half_width: float, window: str, range_window: st
         ``band_selection="doppler"`` on a curved track or a varying speed.
     """
     radar = radar_of(raw)
+    rate = sweep_rate(raw, radar)
     beam_half_width = aperture_half_width(radar, None)
     straight = is_uniform_straight_track(raw)
     if band_selection is None:
@@ -164,8 +168,8 @@ def prepare(raw: xr.Dataset, *, half_width: float, window: str, range_window: st
     if band_selection == "doppler":
         bandwidth = 4 * mean_speed * half_width / radar.wavelength  # B_a = v / rho
         rf_frequency = radar.carrier_frequency + radar.chirp_rate * fast_time(radar)
-        pad = int(np.ceil(4 * radar.prf / bandwidth))
-        samples = doppler_bandpass(samples, radar.prf, mean_centroid, half_width, mean_speed,
+        pad = int(np.ceil(4 * rate / bandwidth))
+        samples = doppler_bandpass(samples, rate, mean_centroid, half_width, mean_speed,
                                    rf_frequency, coefficients, pad)
         kernel_half_width, kernel_window = beam_half_width, window_coefficients("rect")
     else:
@@ -181,7 +185,8 @@ def prepare(raw: xr.Dataset, *, half_width: float, window: str, range_window: st
                     mean_speed=mean_speed, mean_centroid=mean_centroid,
                     beam_half_width=beam_half_width, coefficients=coefficients,
                     kernel_half_width=kernel_half_width, kernel_window=kernel_window,
-                    frequency=frequency, profile=profile, receivers=receivers)
+                    frequency=frequency, profile=profile, sweep_rate=rate,
+                    receivers=receivers)
 
 
 def aperture_weights(prepared: Prepared, raw: xr.Dataset, pixels: NDArray, half_width: float,
@@ -196,7 +201,7 @@ def aperture_weights(prepared: Prepared, raw: xr.Dataset, pixels: NDArray, half_
     origin, direction, _ = track_frame(raw)
     p = prepared
     coordinates = coordinates or track_coordinates(pixels, origin, direction)
-    signal_weight = full_aperture_weight(pixels, origin, direction, p.mean_speed, p.radar.prf,
+    signal_weight = full_aperture_weight(pixels, origin, direction, p.mean_speed, p.sweep_rate,
                                          p.mean_centroid, half_width, float(p.coefficients[0]),
                                          coordinates)
     if p.band_selection != "doppler":

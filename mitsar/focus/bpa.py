@@ -112,7 +112,7 @@ def focus_bpa(raw: xr.Dataset, pixels: NDArray, *, half_width: float, window: st
                    for c in chunks]
     else:
         if bp.straight:
-            ranges = sweep_window(pixels, origin, direction, bp.mean_speed / radar.prf,
+            ranges = sweep_window(pixels, origin, direction, bp.mean_speed / bp.sweep_rate,
                                   len(positions), bp.mean_centroid, bp.kernel_half_width)
         else:  # any track: a safe bound from a coarse search (curved_sweep_range)
             ranges = curved_sweep_range(pixels, positions, bp.velocities, bp.centroid,

@@ -42,9 +42,27 @@ def channel_view(raw: xr.Dataset, channel: int) -> xr.Dataset:
     Its ``raw`` is (sweep, sample); it keeps the channel's body-frame ``transmitter_offset``
     and ``receiver_offset`` (xyz) [m], which back-projection places on the track
     (:func:`mitsar.focus.bp_setup.channel_phase_centres`), and the attribute ``channel``.
+
+    A TDM-MIMO channel (a product with ``fires``: :func:`mitsar.products.raw.channel_variables`)
+    keeps only the sweeps its transmitter fired, every N_tx-th, each with its own track point
+    (the per-slot motion), and the attribute ``sweep_stride = N_tx``: the focusers then sample
+    the aperture at ``prf / N_tx`` (:func:`mitsar.products.raw.sweep_rate`), so their sweep
+    windows and full-aperture weights count only the channel's sweeps.
     """
     view = raw.isel(channel=channel)
-    view.attrs = {**raw.attrs, "channel": int(channel)}
+    attrs = {**raw.attrs, "channel": int(channel)}
+    if "fires" in raw.variables:
+        fires = np.asarray(view["fires"].values, dtype=bool)
+        indices = np.asarray(raw["sweep"].values)[fires]
+        stride = radar_of(raw).transmitter_count
+        if len(indices) > 1 and not np.all(np.diff(indices) == stride):
+            raise ParameterError("channel_view", "raw.sweep", f"the channel's sweeps every "
+                                 f"{stride}-th (TDM-MIMO with {stride} transmitters: a contiguous "
+                                 "run of acquisition sweeps)", "a gap in the sweeps")
+        view = view.isel(sweep=np.flatnonzero(fires)).drop_vars(
+            ["fires", "channel_transmitter", "channel_receiver"], errors="ignore")
+        attrs["sweep_stride"] = int(stride)
+    view.attrs = attrs
     return view
 
 

@@ -25,7 +25,7 @@ from mitsar.focus.referenced import focus_referenced
 from mitsar.focus.windows import WINDOWS
 from mitsar.model.radar import Radar
 from mitsar.products.image import make_image_product
-from mitsar.products.raw import radar_of
+from mitsar.products.raw import radar_of, sweep_rate
 
 ALGORITHMS = ("bpa", "rda", "wda", "fsa", "ffbp")
 """Names of the focusing algorithms."""
@@ -142,6 +142,11 @@ def focus(raw: xr.Dataset, algorithm: str = "bpa", grid: Grid | dict | None = No
             motion_compensation=motion_compensation), autofocus)
 
     radar = radar_of(raw)
+    if int(raw.attrs.get("sweep_stride", 1)) > 1 and algorithm not in ("bpa", "ffbp"):
+        raise ParameterError("focus", "algorithm", "'bpa' or 'ffbp' for one channel of a "
+                             "TDM-MIMO product (its sweeps are every "
+                             f"{raw.attrs['sweep_stride']}-th of the pass; the spectral "
+                             "algorithms assume every sweep)", algorithm)
     half_width = aperture_half_width(radar, azimuth_resolution)
     if "reference_range" not in raw.variables:  # recordings carry their own sampling
         _check_processed_band(raw, radar, half_width, azimuth_resolution)
@@ -232,11 +237,19 @@ def _check_processed_band(raw: xr.Dataset, radar: Radar, half_width: float,
         raise ParameterError("focus", "platform_velocity", "a moving platform (a synthetic "
                              "aperture needs motion)", f"mean speed {speed.mean():.3g} m/s")
     band = 4 * speed.max() * half_width / radar.wavelength
-    if band > radar.prf:
+    rate = sweep_rate(raw, radar)  # the PRF; PRF / N_tx for one TDM-MIMO channel
+    if band > rate:
         hint = ("set azimuth_resolution (the whole beam is processed by default)"
                 if azimuth_resolution is None else "raise azimuth_resolution")
         raise ParameterError(
             "focus", "azimuth_resolution",
-            f"a processed Doppler band 4 v h / lambda <= PRF = {radar.prf:g} Hz ({hint}; "
-            f"the finest resolution at {speed.max():.3g} m/s is "
-            f"{speed.max() / radar.prf:.3g} m)", f"{azimuth_resolution} ({band:.4g} Hz)")
+            f"a processed Doppler band 4 v h / lambda <= the sweep rate {rate:g} Hz (PRF "
+            f"{radar.prf:g} Hz{_per_slot(raw)}; {hint}; the finest resolution at "
+            f"{speed.max():.3g} m/s is {speed.max() / rate:.3g} m)",
+            f"{azimuth_resolution} ({band:.4g} Hz)")
+
+
+def _per_slot(raw: xr.Dataset) -> str:
+    """How a TDM-MIMO channel's sweep rate follows from the PRF, for messages."""
+    stride = int(raw.attrs.get("sweep_stride", 1))
+    return "" if stride == 1 else f" / {stride} transmitters in turn, TDM-MIMO"

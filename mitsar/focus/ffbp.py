@@ -225,7 +225,7 @@ def focus_ffbp(raw: xr.Dataset, layout_or_pixels: dict | NDArray, *, half_width:
     if bp.straight:
         origin, direction, _ = track_frame(raw)
         coordinates = track_coordinates(pixels, origin, direction)
-        first, end = sweep_window(pixels, origin, direction, mean_speed / radar.prf,
+        first, end = sweep_window(pixels, origin, direction, mean_speed / bp.sweep_rate,
                                   len(positions), mean_centroid, kernel_half_width, coordinates)
         first_child = np.searchsorted(stage.end, first, side="right").astype(np.uint32)
         end_child = np.searchsorted(stage.first, end, side="left").astype(np.uint32)

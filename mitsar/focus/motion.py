@@ -34,6 +34,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from mitsar.errors import ParameterError
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
+from mitsar.products.raw import sweep_rate
 
 POSITION_TOLERANCE_WAVELENGTHS = 1.0 / 16.0
 """Largest deviation of the antenna from the fitted straight, uniform track, in wavelengths
@@ -136,7 +137,7 @@ def straight_track(raw: xr.Dataset, radar: Radar,
         raise _refuse("raw.platform_position", f"uniformly spaced sweeps (within lambda/16 = "
                       f"{tolerance * 1e3:.3g} mm)", f"spacing errors up to "
                       f"{along_error * 1e3:.3g} mm (a varying speed)")
-    speed = float(slope * radar.prf)
+    speed = float(slope * sweep_rate(raw, radar))
     if abs(speed - speed_mean) > VELOCITY_TOLERANCE * speed_mean:
         raise _refuse("raw.platform_velocity", f"velocities consistent with the sweep positions "
                       f"({speed:.6g} m/s at PRF {radar.prf:g} Hz)", f"{speed_mean:.6g} m/s")

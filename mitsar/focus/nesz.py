@@ -29,7 +29,7 @@ from mitsar.model.geometry.antenna import two_way_pattern
 from mitsar.model.geometry.attitude import antenna_frame
 from mitsar.model.noise import focused_noise_power, noise_equivalent_sigma0, window_noise_bandwidth
 from mitsar.model.signal import radar_equation_amplitude
-from mitsar.products.raw import look_of, radar_of
+from mitsar.products.raw import look_of, radar_of, sweep_rate
 
 __all__ = ["APERTURE_NODES", "noise_variables", "unit_peak_amplitude"]
 
@@ -112,8 +112,8 @@ def noise_variables(raw: xr.Dataset, pixels: NDArray, coverage: NDArray, half_wi
     if radar.noise_figure_db is None or int(raw.attrs.get("normalized", 0)):
         return None
     origin, direction, _, speed, centroid = _aperture_sampling(raw)
-    sweeps = full_aperture_weight(pixels, origin, direction, speed, radar.prf, centroid,
-                                  half_width, 1.0)
+    sweeps = full_aperture_weight(pixels, origin, direction, speed, sweep_rate(raw, radar),
+                                  centroid, half_width, 1.0)
     coverage = np.clip(np.asarray(coverage, dtype=float).ravel(), 0.0, 1.0)
     noise = coverage * focused_noise_power(
         radar.noise_power, radar.samples_per_sweep, sweeps,

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from mitsar.checks import KnownFields, finite, is_real, positive
 from mitsar.errors import ParameterError
@@ -27,7 +28,7 @@ REFERENCE_TEMPERATURE = 290.0
 
 
 MAX_CHANNELS = 64
-"""Most receive channels of one radar."""
+"""Most channels of one radar (receivers, times the transmitters under TDM-MIMO)."""
 
 MAX_PHASE_CENTRE_OFFSET = 10.0
 """Largest body-frame offset of a phase centre [m] (an antenna a drone can carry)."""
@@ -80,7 +81,8 @@ class Radar(metaclass=KnownFields):
     transmitters : sequence of 3-vectors or None
         Transmit phase centres in the body frame [m]; ``None``: one at the origin. With one
         transmitter every receiver listens to it (single-pass interferometer); with
-        ``ping_pong`` each receiver's own phase centre transmits.
+        ``ping_pong`` each receiver's own phase centre transmits. Several transmitters take
+        turns sweep by sweep (TDM-MIMO: :attr:`is_tdm`), giving N_tx x N_rx channels.
     ping_pong : bool
         Each channel transmits and receives on its own phase centre (the interferometric
         phase doubles: docs/interferometry.md).
@@ -172,10 +174,11 @@ class Radar(metaclass=KnownFields):
         if self.ping_pong and self.transmitters is not None:
             raise ParameterError("Radar", "transmitters", "None with ping_pong (each receiver "
                                  "transmits on its own phase centre)", self.transmitters)
-        if self.transmitters is not None and len(self.transmitters) > 1:
-            raise ParameterError("Radar", "transmitters", "one transmitter (several in time "
-                                 "slots, TDM-MIMO, are not simulated yet: docs/interferometry.md)",
-                                 self.transmitters)
+        if self.channel_count > MAX_CHANNELS:
+            raise ParameterError("Radar", "transmitters", f"at most {MAX_CHANNELS} channels "
+                                 f"(transmitters x receivers, TDM-MIMO): {len(self.transmitters)}"
+                                 f" x {len(self.receivers or ((0, 0, 0),))} = "
+                                 f"{self.channel_count}", len(self.transmitters))
 
     # --- channels ---------------------------------------------------------------------------
     @property
@@ -184,9 +187,45 @@ class Radar(metaclass=KnownFields):
         return self.receivers is not None or self.transmitters is not None or self.ping_pong
 
     @property
+    def transmitter_count(self) -> int:
+        """Number of transmitters N_tx taking turns (TDM-MIMO when > 1; ping-pong: 1)."""
+        return 1 if self.transmitters is None else len(self.transmitters)
+
+    @property
+    def is_tdm(self) -> bool:
+        """Whether several transmitters take turns sweep by sweep (TDM-MIMO).
+
+        Sweep k is transmitted by transmitter ``k mod N_tx`` (TI's chirp-by-chirp TDM: each
+        chirp a full sweep of duration 1/PRF) while every receiver listens; channel
+        ``c = i N_rx + j`` is the pair (transmitter i, receiver j) and has samples only in the
+        sweeps of its slot i (docs/interferometry.md §8, "TDM-MIMO").
+        """
+        return self.transmitter_count > 1
+
+    @property
     def channel_count(self) -> int:
-        """Number of receive channels."""
-        return 1 if self.receivers is None else len(self.receivers)
+        """Number of channels: receivers, times the transmitters under TDM-MIMO."""
+        receivers = 1 if self.receivers is None else len(self.receivers)
+        return self.transmitter_count * receivers
+
+    def channel_pairs(self) -> tuple[tuple[int, int], ...]:
+        """(transmitter, receiver) indices of each channel; channel ``c = i N_rx + j``.
+
+        Without TDM-MIMO the transmitter index is 0 (with ``ping_pong`` each channel's own
+        phase centre transmits; its index is still reported as 0: one time slot).
+        """
+        receivers = 1 if self.receivers is None else len(self.receivers)
+        return tuple((i, j) for i in range(self.transmitter_count) for j in range(receivers))
+
+    def firing(self, sweeps: ArrayLike) -> NDArray[np.bool_]:
+        """Whether each channel has samples in each sweep, shape (channels, sweeps).
+
+        ``sweeps``: acquisition sweep indices k (counted from the pass's first sweep). Under
+        TDM-MIMO channel (i, j) fires in the sweeps ``k mod N_tx == i``; otherwise in all.
+        """
+        sweeps = np.asarray(sweeps, dtype=np.int64)
+        slots = np.array([i for i, _ in self.channel_pairs()], dtype=np.int64)
+        return sweeps[None, :] % self.transmitter_count == slots[:, None]
 
     def channel_offsets(self) -> tuple[tuple[tuple[float, float, float], ...],
                                        tuple[tuple[float, float, float], ...]]:
@@ -195,12 +234,35 @@ class Radar(metaclass=KnownFields):
         Returns
         -------
         transmitters, receivers : tuple of 3-tuples, one per channel
+            Under TDM-MIMO channel ``c = i N_rx + j`` is (t_i, r_j) (:meth:`channel_pairs`).
         """
         receivers = self.receivers or ((0.0, 0.0, 0.0),)
         if self.ping_pong:
             return receivers, receivers
-        transmitter = (self.transmitters or ((0.0, 0.0, 0.0),))[0]
-        return tuple(transmitter for _ in receivers), receivers
+        transmitters = self.transmitters or ((0.0, 0.0, 0.0),)
+        pairs = self.channel_pairs()
+        return (tuple(transmitters[i] for i, _ in pairs),
+                tuple(receivers[j] for _, j in pairs))
+
+    def virtual_phase_centres(self) -> NDArray[np.float64]:
+        """Far-field virtual array element of each channel, ``t_i + r_j`` (body frame) [m].
+
+        Far from the antenna (``R >> |t|, |r|``) the two-way path of the pair is
+        ``|t - q| + |q - r| ~ 2 R - u.(t + r)`` (u: unit vector from the body origin to the
+        target q at range R), the path of a one-way array element at ``t + r`` (MIMO virtual
+        array; the equivalent monostatic phase centre is ``(t + r) / 2``). Not valid in the
+        near field: the neglected term is ``(|t_perp|^2 + |r_perp|^2) / (2 R)`` of path
+        (perp: the parts across u), ``pi (|t_perp|^2 + |r_perp|^2) / (lambda R)`` of phase
+        (docs/interferometry.md §8). Only for figures and far-field reasoning; the simulators
+        and the focusers use the exact pair. Source: ../shared/reference/interferometry-notes.md
+        §3.
+
+        Returns
+        -------
+        ndarray, shape (channels, 3)
+        """
+        transmitters, receivers = self.channel_offsets()
+        return np.asarray(transmitters, dtype=float) + np.asarray(receivers, dtype=float)
 
     # --- derived values -------------------------------------------------------------------
     @property
@@ -287,13 +349,27 @@ class Radar(metaclass=KnownFields):
 
         The beam is Table 1's beamwidth lambda / l_AZ (the one-way -3.9 dB width of the sinc^2
         pattern); its sidelobe and beam-edge energy beyond it still aliases weakly.
-        Focusing refuses, separately, a *processed* band wider than the PRF.
+        Focusing refuses, separately, a *processed* band wider than the PRF. Under TDM-MIMO
+        (:attr:`is_tdm`) each channel is sampled at ``prf / N_tx``, and that rate must hold the
+        band.
         """
         speed = finite("Radar.check_prf", "speed", speed, "a finite platform speed >= 0 m/s")
         if speed < 0:
             raise ParameterError("Radar.check_prf", "speed", "a finite platform speed >= 0 m/s",
                                  speed)
         band = self.doppler_bandwidth(speed)
+        if self.is_tdm:  # each channel is sampled once per N_tx sweeps
+            rate = self.prf / self.transmitter_count
+            if not rate >= band:
+                raise ParameterError(
+                    "Radar", "prf",
+                    f"prf / N_tx >= the azimuth Doppler bandwidth 4 v sin(theta_AZ/2)/lambda = "
+                    f"{band:.1f} Hz at platform speed {speed:g} m/s: with {self.transmitter_count}"
+                    f" transmitters in turn (TDM-MIMO) each channel is sampled at prf / "
+                    f"{self.transmitter_count} = {rate:.1f} Hz (else azimuth aliases); raise "
+                    f"the PRF to >= {band * self.transmitter_count:.1f} Hz, lower the speed to "
+                    f"<= {speed * rate / band:.3g} m/s or use fewer transmitters", self.prf)
+            return
         if not self.prf >= band:
             raise ParameterError(
                 "Radar", "prf",

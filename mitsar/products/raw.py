@@ -41,7 +41,7 @@ from mitsar.products.schema import Schema, Variable, encode_attrs, validate
 from mitsar.version import __version__
 
 __all__ = ["RAW_SCHEMA", "TRACK_VARIABLES", "look_of", "make_raw_product", "radar_of",
-           "track_geometry", "track_variables", "validate_raw"]
+           "sweep_rate", "track_geometry", "track_variables", "validate_raw"]
 
 TRACK_VARIABLES = (
     ("platform_position", "position", "xyz", "m"),
@@ -110,7 +110,7 @@ def validate_raw(product: xr.Dataset, where: str = "raw product") -> xr.Dataset:
 
 def make_raw_product(samples: ArrayLike, radar: Radar, look: Look, geometry: Any,
                      *, rvp: bool = True, attrs: dict[str, Any] | None = None,
-                     true_geometry: Any = None) -> xr.Dataset:
+                     true_geometry: Any = None, sweeps: ArrayLike | None = None) -> xr.Dataset:
     """Assemble the raw product from samples and per-sweep geometry.
 
     Parameters
@@ -129,6 +129,9 @@ def make_raw_product(samples: ArrayLike, radar: Radar, look: Look, geometry: Any
         Extra attributes (provenance: seed, config, ...; dicts and lists as JSON).
     true_geometry : SweepGeometry, optional
         The true track's geometry when ``geometry`` is a navigation track.
+    sweeps : array_like of int, optional
+        Acquisition index of each sweep (the ``sweep`` coordinate; default 0, 1, ...); under
+        TDM-MIMO they say which transmitter fired (:meth:`Radar.firing`).
 
     Returns
     -------
@@ -137,13 +140,14 @@ def make_raw_product(samples: ArrayLike, radar: Radar, look: Look, geometry: Any
     """
     samples = np.asarray(samples)
     channels = samples.ndim == 3  # (channel, sweep, sample): a radar with phase centres
-    sweeps = samples.shape[-2]
+    sweep_index = (np.arange(samples.shape[-2]) if sweeps is None
+                   else np.asarray(sweeps, dtype=np.int64))
     slow = TRACK_SCHEMA["slow_time"]
     data = xr.Dataset(
         {"raw": ((("channel",) if channels else ()) + ("sweep", "sample"), samples),
          **track_variables(geometry, true_geometry)},
         coords={
-            "sweep": np.arange(sweeps),
+            "sweep": sweep_index,
             "sample": np.arange(samples.shape[-1]),
             "slow_time": ("sweep", geometry.slow_time, slow.attrs()),
             "fast_time": ("sample", fast_time(radar), RAW_SCHEMA.variables["fast_time"].attrs()),
@@ -154,22 +158,40 @@ def make_raw_product(samples: ArrayLike, radar: Radar, look: Look, geometry: Any
     data["raw"].attrs.update(RAW_SCHEMA.variables["raw"].attrs())
     if channels:
         data = data.assign_coords(channel=np.arange(samples.shape[0]))
-        data.update(channel_variables(radar))
+        data.update(channel_variables(radar, sweep_index))
     data.attrs.update(product_attrs("raw", radar, look, rvp))
     data.attrs.update(encode_attrs(attrs or {}))
     return data
 
 
-def channel_variables(radar: Radar) -> dict[str, tuple]:
+def channel_variables(radar: Radar, sweeps: ArrayLike | None = None) -> dict[str, tuple]:
     """``transmitter_offset`` and ``receiver_offset`` (channel, xyz): each channel's body-frame
-    phase centres [m] (:meth:`mitsar.model.radar.Radar.channel_offsets`)."""
+    phase centres [m] (:meth:`mitsar.model.radar.Radar.channel_offsets`).
+
+    Under TDM-MIMO (:attr:`mitsar.model.radar.Radar.is_tdm`) also ``channel_transmitter`` and
+    ``channel_receiver`` (channel): the pair's indices (channel ``c = i N_rx + j``), and
+    ``fires`` (channel, sweep): whether the channel's transmitter fired in the sweep
+    (``sweeps``: acquisition sweep indices; sweep k belongs to transmitter ``k mod N_tx``).
+    Its samples in the other sweeps are exact zeros. docs/interferometry.md §8.
+    """
     transmitters, receivers = radar.channel_offsets()
-    return {
+    out = {
         "transmitter_offset": (("channel", "xyz"), np.array(transmitters, dtype=float),
                                {"units": "m", "long_name": "body-frame transmit phase centre"}),
         "receiver_offset": (("channel", "xyz"), np.array(receivers, dtype=float),
                             {"units": "m", "long_name": "body-frame receive phase centre"}),
     }
+    if radar.is_tdm and sweeps is not None:
+        pairs = np.array(radar.channel_pairs(), dtype=np.int32)
+        out.update(
+            channel_transmitter=(("channel",), pairs[:, 0], {
+                "long_name": "transmitter index i of the channel (its TDM time slot)"}),
+            channel_receiver=(("channel",), pairs[:, 1], {
+                "long_name": "receiver index j of the channel"}),
+            fires=(("channel", "sweep"), radar.firing(sweeps), {
+                "long_name": "the channel's transmitter fired in the sweep (TDM-MIMO: sweep k "
+                             "is transmitter k mod N_tx's); zero samples elsewhere"}))
+    return out
 
 
 def product_attrs(product: str, radar: Radar, look: Look, rvp: bool) -> dict[str, Any]:
@@ -204,6 +226,18 @@ def track_geometry(product: xr.Dataset, prefix: str = "") -> SweepGeometry | Non
 def radar_of(product: xr.Dataset) -> Radar:
     """The :class:`Radar` recorded in a product's attributes."""
     return Radar.from_attrs(product.attrs)
+
+
+def sweep_rate(product: xr.Dataset, radar: Radar | None = None) -> float:
+    """Rate [Hz] at which a product's consecutive sweeps sample the aperture.
+
+    The PRF, divided by the attribute ``sweep_stride`` (default 1) of a product that holds
+    every ``sweep_stride``-th sweep only: one channel of a TDM-MIMO product
+    (:func:`mitsar.focus.channels.channel_view`), whose transmitter fires in one sweep of
+    N_tx. The sweep *duration* stays ``1/prf``. ``radar``: the product's, if already read.
+    """
+    radar = radar or radar_of(product)
+    return radar.prf / int(product.attrs.get("sweep_stride", 1))
 
 
 def look_of(product: xr.Dataset) -> Look:

@@ -172,14 +172,11 @@ def simulate_point_targets(radar: Radar, trajectory: Trajectory, look: Look,
     if not np.any(amplitude):
         raise _all_zero_error()
     sum_echoes = _sum_echoes_drjit if backend == "drjit" else _sum_echoes_numpy
-    channels = []
-    for channel, offsets in enumerate(_channel_offsets(radar)):
-        samples = sum_echoes(radar, trajectory, plan["geometry"], plan["positions"],
-                             plan["velocities"], amplitude, rvp=rvp, progress=progress,
-                             chunk_elements=chunk_elements, offsets=offsets)
-        if noise:
-            samples += thermal_noise(radar, seed, np.arange(sweeps), channel)
-        channels.append(samples)
+    channels = [_channel_samples(radar, trajectory, plan, plan["geometry"], amplitude,
+                                 np.arange(sweeps), channel, offsets, sum_echoes, rvp=rvp,
+                                 noise=noise, seed=seed, progress=progress,
+                                 chunk_elements=chunk_elements)
+                for channel, offsets in enumerate(_channel_offsets(radar))]
     return _product(plan, _stack(radar, channels), slice(0, sweeps), first=True)
 
 
@@ -229,17 +226,48 @@ def stream_point_targets(radar: Radar, trajectory: Trajectory, look: Look,
                                      plan["velocities"], plan["reflectivity"](part.stop - start),
                                      normalized=normalized, pattern=pattern)
         any_echo = any_echo or bool(np.any(amplitude))
-        channels = []
-        for channel, offsets in enumerate(_channel_offsets(radar)):
-            samples = sum_echoes(radar, trajectory, chunk_geometry, plan["positions"],
-                                 plan["velocities"], amplitude, rvp=rvp, progress=False,
-                                 chunk_elements=STREAM_KERNEL_LANES, offsets=offsets)
-            if noise:
-                samples += thermal_noise(radar, seed, np.arange(part.start, part.stop), channel)
-            channels.append(samples)
+        channels = [_channel_samples(radar, trajectory, plan, chunk_geometry, amplitude,
+                                     np.arange(part.start, part.stop), channel, offsets,
+                                     sum_echoes, rvp=rvp, noise=noise, seed=seed,
+                                     progress=False, chunk_elements=STREAM_KERNEL_LANES)
+                    for channel, offsets in enumerate(_channel_offsets(radar))]
         yield _product(plan, _stack(radar, channels), part, first=start == 0)
     if not any_echo:
         raise _all_zero_error()
+
+
+def _channel_samples(radar: Radar, trajectory: Trajectory, plan: dict, geometry: SweepGeometry,
+                     amplitude: NDArray, sweep_indices: NDArray, channel: int,
+                     offsets: tuple[NDArray, NDArray] | None, sum_echoes: Any, *, rvp: bool,
+                     noise: bool, seed: int, progress: bool, chunk_elements: int
+                     ) -> NDArray[np.complex128]:
+    """Samples (sweeps, samples) of one channel over the sweeps ``sweep_indices`` (acquisition
+    indices) with their ``geometry`` and echo ``amplitude`` rows, and its thermal noise.
+
+    Under TDM-MIMO (:attr:`Radar.is_tdm`) only the sweeps of the channel's transmitter slot
+    are simulated (:meth:`Radar.firing`); the others stay exact zeros, noise included: that
+    transmitter is silent and the receiver's samples of those sweeps belong to other
+    channels. Each fired sample's delay is the exact bistatic one at its own time, so the
+    platform motion between the slots is in the samples.
+    """
+    if not radar.is_tdm:
+        samples = sum_echoes(radar, trajectory, geometry, plan["positions"], plan["velocities"],
+                             amplitude, rvp=rvp, progress=progress,
+                             chunk_elements=chunk_elements, offsets=offsets)
+        if noise:
+            samples += thermal_noise(radar, seed, sweep_indices, channel)
+        return samples
+    fires = radar.firing(sweep_indices)[channel]
+    samples = np.zeros((len(sweep_indices), radar.samples_per_sweep), dtype=complex)
+    if not fires.any():
+        return samples
+    samples[fires] = sum_echoes(radar, trajectory, geometry.select(fires), plan["positions"],
+                                plan["velocities"], amplitude[fires], rvp=rvp,
+                                progress=progress, chunk_elements=chunk_elements,
+                                offsets=offsets)
+    if noise:
+        samples[fires] += thermal_noise(radar, seed, sweep_indices[fires], channel)
+    return samples
 
 
 def _channel_offsets(radar: Radar) -> list[tuple[NDArray, NDArray] | None]:
@@ -388,9 +416,7 @@ def _product(plan: dict, samples: NDArray, part: slice, first: bool) -> xr.Datas
     product = make_raw_product(
         samples, plan["radar"], plan["look"], geometry if recorded is None else recorded,
         rvp=plan["rvp"], true_geometry=None if recorded is None else geometry,
-        attrs=plan["attrs"])
-    product = product.assign_coords(sweep=np.arange(part.start,
-                                                    part.start + samples.shape[-2]))
+        attrs=plan["attrs"], sweeps=np.arange(part.start, part.start + samples.shape[-2]))
     if not first:
         return product
     targets, background_draw = plan["targets"], plan["background_draw"]
