@@ -110,6 +110,9 @@ def focus_channels(raw: xr.Dataset, algorithm: str, grid: Grid,
     image = image.assign_coords(channel=raw["channel"].values)
     for name in _OFFSETS:
         image[name] = raw[name]
+    for name in ("channel_transmitter", "channel_receiver"):  # TDM-MIMO: the channel's pair
+        if name in raw.variables:
+            image[name] = raw[name]
     radar = radar_of(raw)
     image["aperture_position"] = (("aperture", "xyz"), raw["platform_position"].values,
                                   {"units": "m", "long_name": "track point at mid-sweep"})

@@ -159,6 +159,7 @@ def raw_from_histogram(histogram: xr.Dataset, samples: ArrayLike,
     for name in ("transmitter_offset", "receiver_offset"):  # one channel of several
         if name in histogram.variables:
             product[name] = histogram[name]
-    if "channel" in histogram.attrs:
-        product.attrs["channel"] = histogram.attrs["channel"]
+    for key in ("channel", "sweep_stride"):  # one channel of several (TDM-MIMO: its sweeps)
+        if key in histogram.attrs:
+            product.attrs[key] = histogram.attrs[key]
     return product.assign_coords(sweep=histogram["sweep"].values)

@@ -112,6 +112,8 @@ class TraceRun:
         require_memory(where, "trajectory.duration", 2.0 * total * GEOMETRY_BYTES_PER_SWEEP,
                        f"{total} sweeps (duration x prf): shorten the flight")
         self.sweeps = _select_sweeps(where, options.sweeps, total)
+        # the sweeps asked for; self.sweeps: those traced (TDM-MIMO: the channel's slot only)
+        self.acquisition_sweeps = self.sweeps
         require_raw_memory(where, radar, len(self.sweeps))
         register_plugins()
         import mitsuba as mi  # lazy: a variant is set by register_plugins just above
@@ -192,7 +194,9 @@ class TraceRun:
         time (``config.channel``): the transmitter at the track point plus its body-frame
         offset rotated by the attitude of the sweep, and, where the receiver is elsewhere, its
         position per sweep in :attr:`TraceSetup.channel_receivers` (direct backscatter is then
-        deposited at half the exact path). A single-channel radar: the track itself.
+        deposited at half the exact path). Under TDM-MIMO (:attr:`Radar.is_tdm`) only the
+        sweeps of the channel's transmitter slot are traced (:meth:`Radar.firing`), each from
+        its own track point. A single-channel radar: the track itself.
         """
         if not radar.has_channels:
             return None, self.geometry
@@ -207,6 +211,8 @@ class TraceRun:
                                  "of channels is not traced yet (docs/interferometry.md)",
                                  self.config.max_depth if self.config.max_depth > 1
                                  else self.config.receiver_offset)
+        if radar.is_tdm:
+            self.sweeps = self.sweeps[radar.firing(self.sweeps)[channel]]
         transmitters, receivers = radar.channel_offsets()
         attitude = self.geometry.attitude.T
         transmitter = self.geometry.position + body_offset_to_world(transmitters[channel],

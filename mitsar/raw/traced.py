@@ -104,6 +104,8 @@ def trace(radar: Radar, trajectory: Trajectory, look: Look, scene: Any, *,
     if run.channel is not None:  # one channel of several: its phase centres travel with it
         transmitters, receivers = run.radar.channel_offsets()
         product.attrs["channel"] = run.channel
+        if run.radar.is_tdm:  # its transmitter's sweeps only (mitsar.products.raw.sweep_rate)
+            product.attrs["sweep_stride"] = run.radar.transmitter_count
         for name, offset in (("transmitter_offset", transmitters[run.channel]),
                              ("receiver_offset", receivers[run.channel])):
             product[name] = ("xyz", np.asarray(offset, dtype=float),
@@ -323,8 +325,14 @@ def simulate_scene(radar: Radar, trajectory: Trajectory, look: Look, scene: Any,
         traced.append(_trace_raw(TraceRun("simulate_scene", radar, trajectory, look,
                                           traced[0][0].scene, shared, navigation, motion)))
     run, kept = traced[0][0], traced[0][2]
-    samples = (np.stack([samples for _, samples, _ in traced]) if radar.has_channels
-               else traced[0][1])
+    sweeps = run.acquisition_sweeps
+    if radar.is_tdm:  # each channel traced its slot's sweeps: zeros in the others
+        samples = np.zeros((len(traced), len(sweeps), radar.samples_per_sweep), complex)
+        for k, (channel_run, channel_samples, _) in enumerate(traced):
+            samples[k, np.searchsorted(sweeps, channel_run.sweeps)] = channel_samples
+    else:
+        samples = (np.stack([samples for _, samples, _ in traced]) if radar.has_channels
+                   else traced[0][1])
     config = run.config
     attrs = run.attrs()
     attrs.update(simulator="ray tracing (radar integrator)", normalized=int(config.normalized),
@@ -333,7 +341,7 @@ def simulate_scene(radar: Radar, trajectory: Trajectory, look: Look, scene: Any,
         analytic = simulate_point_targets(radar, trajectory, look, targets, background,
                                           seed=config.seed, rvp=config.rvp,
                                           normalized=config.normalized, navigation=run.recorded)
-        samples += analytic["raw"].values[..., run.sweeps, :]
+        samples += analytic["raw"].values[..., sweeps, :]
         attrs["simulator"] += " + analytic point targets"
         attrs["analytic_config"] = analytic.attrs.get("config", "{}")
     if not np.any(samples):
@@ -344,13 +352,13 @@ def simulate_scene(radar: Radar, trajectory: Trajectory, look: Look, scene: Any,
                       MitsarWarning, stacklevel=2)
     attrs["noise"] = int(config.noise)
     if config.noise and radar.has_channels:  # independent noise per receiver
+        fires = radar.firing(sweeps)  # TDM-MIMO: only in the sweeps a channel fires
         for k in channels:
-            samples[k] += thermal_noise(radar, config.seed, run.sweeps, k)
+            samples[k, fires[k]] += thermal_noise(radar, config.seed, sweeps[fires[k]], k)
     elif config.noise:
-        samples += thermal_noise(radar, config.seed, run.sweeps)
+        samples += thermal_noise(radar, config.seed, sweeps)
     if config.noise:
         attrs.update(noise_power=radar.noise_power, noise_seed=int(config.seed))
-    recorded, true = run.geometry_of(run.sweeps)
-    product = make_raw_product(samples, radar, look, recorded, rvp=config.rvp, attrs=attrs,
-                               true_geometry=true)
-    return product.assign_coords(sweep=run.sweeps)
+    recorded, true = run.geometry_of(sweeps)
+    return make_raw_product(samples, radar, look, recorded, rvp=config.rvp, attrs=attrs,
+                            true_geometry=true, sweeps=sweeps)
