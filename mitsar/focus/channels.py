@@ -24,6 +24,7 @@ import numpy as np
 import xarray as xr
 
 from mitsar.errors import ParameterError
+from mitsar.focus.autofocus.apply import correct_raw
 from mitsar.focus.grid import Grid, PointsGrid
 from mitsar.products.raw import radar_of
 
@@ -67,7 +68,7 @@ def channel_view(raw: xr.Dataset, channel: int) -> xr.Dataset:
 
 
 def focus_channels(raw: xr.Dataset, algorithm: str, grid: Grid,
-                   focus_one: Callable[[xr.Dataset, Grid], xr.Dataset],
+                   focus_one: Callable[[xr.Dataset, Grid, str | None], xr.Dataset],
                    autofocus: str | None = None) -> xr.Dataset:
     """Focus every channel of ``raw`` onto the pixels of channel 0's grid (module docstring).
 
@@ -80,11 +81,16 @@ def focus_channels(raw: xr.Dataset, algorithm: str, grid: Grid,
     grid : Grid
         The output grid, resolved on channel 0.
     focus_one : callable
-        ``focus_one(single_channel_raw, grid) -> image``: :func:`mitsar.focus` with the caller's
-        options.
-    autofocus : str or None
-        Refused for now (an autofocus per channel would give each channel its own phase
-        screen and bias the interferometric phase).
+        ``focus_one(single_channel_raw, grid, autofocus) -> image``: :func:`mitsar.focus` with
+        the caller's options.
+    autofocus : {"pga", "entropy"} or None
+        Autofocus channel 0 and apply *its* phase per sweep to every channel
+        (:func:`mitsar.focus.autofocus.apply.correct_raw`) before focusing them: the error of
+        a navigation track is the platform's, common to phase centres centimetres apart, and
+        one phase screen keeps the interferometric phase unbiased (an autofocus per channel
+        would give each channel its own constant and linear phase). The image records
+        ``autofocus_phase`` and ``autofocus_channels = "channel 0's phase applied to all"``.
+        Not with TDM-MIMO (its channels hold different sweeps).
 
     Returns
     -------
@@ -96,13 +102,19 @@ def focus_channels(raw: xr.Dataset, algorithm: str, grid: Grid,
                              f"multi-channel raw product ({raw.sizes['channel']} channels: each "
                              "channel's exact bistatic path is back-projected); or focus one "
                              "channel: mitsar.focus.channels.channel_view(raw, k)", algorithm)
-    if autofocus is not None:
-        raise ParameterError("focus", "autofocus", "None for a multi-channel raw product (an "
-                             "autofocus per channel would bias the interferometric phase; "
+    if autofocus is not None and radar_of(raw).is_tdm:
+        raise ParameterError("focus", "autofocus", "None for a TDM-MIMO raw product (its "
+                             "channels hold the sweeps of different transmitters; "
                              "docs/interferometry.md)", autofocus)
-    first = focus_one(channel_view(raw, 0), grid)
+    first = focus_one(channel_view(raw, 0), grid, autofocus)
     pixels = PointsGrid(first["position"].values)
-    images = [first["image"].values] + [focus_one(channel_view(raw, k), pixels)["image"].values
+
+    def view(k: int) -> xr.Dataset:
+        if autofocus is None:
+            return channel_view(raw, k)
+        return correct_raw(channel_view(raw, k), first["autofocus_phase"].values)
+
+    images = [first["image"].values] + [focus_one(view(k), pixels, None)["image"].values
                                         for k in range(1, raw.sizes["channel"])]
     image = first.copy()
     image["image"] = (("channel", *first["image"].dims), np.stack(images),
@@ -122,4 +134,6 @@ def focus_channels(raw: xr.Dataset, algorithm: str, grid: Grid,
                               + radar.sweep_duration / 2, {"units": "s",
                                                            "long_name": "mid-sweep time"})
     image.attrs.pop("channel", None)
+    if autofocus is not None:
+        image.attrs["autofocus_channels"] = "channel 0's phase applied to all"
     return image

@@ -133,13 +133,14 @@ def focus(raw: xr.Dataset, algorithm: str = "bpa", grid: Grid | dict | None = No
         raise ParameterError("focus", "grid", "None, a dict (mitsar.grid.from_dict) or a "
                              "SlantGrid, PlaneGrid or PointsGrid", type(grid).__name__)
     if "channel" in raw["raw"].dims:  # every channel onto channel 0's pixels (focus.channels)
-        return focus_channels(raw, algorithm, grid, lambda view, chosen: focus(
+        return focus_channels(raw, algorithm, grid, lambda view, chosen, method: focus(
             view, algorithm, chosen, window=window, range_window=range_window,
             azimuth_resolution=azimuth_resolution, remove_rvp=remove_rvp,
             motion_correction=motion_correction, backend=backend,
             range_upsample=range_upsample, pixel_chunk=pixel_chunk,
             algorithm_options=algorithm_options, progress=progress,
-            motion_compensation=motion_compensation), autofocus)
+            motion_compensation=motion_compensation, autofocus=method,
+            autofocus_options=autofocus_options), autofocus)
 
     radar = radar_of(raw)
     if int(raw.attrs.get("sweep_stride", 1)) > 1 and algorithm not in ("bpa", "ffbp"):
