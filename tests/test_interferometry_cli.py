@@ -139,3 +139,32 @@ def test_run_of_the_bundled_example_forms_the_interferogram(tmp_path):
     loaded, failed, drawn = _rendered(report)
     assert (loaded, failed) == (len(record["figures"]), 0)
     assert drawn > 0
+
+
+def test_interferogram_command_masks_layover_and_shadow_of_a_given_scene(tmp_path):
+    """--scene: the scene's layover and shadow masks (mitsar.scene.masks) go into
+    interferogram.nc; the canned point_target scene (a small sphere 3 cm over a floor) lays
+    over onto the floor pixels of its own range cells, and the open floor is clean (measured:
+    11.5 % of this small grid in layover, none in shadow: the sphere's shadow is shorter than
+    a pixel)."""
+    import mitsar
+
+    radar = mitsar.Radar(receivers=[(0, 0, 0), (0, 0, 0.05)])
+    track = mitsar.Trajectory.linear([14.8, 1.4, 4.5], [0.5, 0.0, 0.0], 0.4)
+    raw = mitsar.simulate_scene(radar, track, mitsar.Look(55.71), "point_target")
+    grid = mitsar.grid.PlaneGrid(origin=[15.0, 7.9, 0.0], axis_u=[0, 1, 0], axis_v=[1, 0, 0],
+                                 u=[-0.2, 0.3, 0.02], v=[-0.05, 0.05, 0.02])
+    image = tmp_path / "image.nc"
+    save(mitsar.focus(raw, "bpa", grid), image)
+    out = tmp_path / "ifg"
+    assert main(["interferogram", str(image), "-o", str(out), "--no-unwrap", "-q",
+                 "--scene", "point_target"]) == 0
+    ifg = load(out / INTERFEROMETRY_FILES["interferogram"])
+    names = set(map(str, ifg.variables))
+    assert {"shadow", "layover"} <= names, sorted(names)
+    assert ifg["layover"].values.any()       # the sphere's range cells
+    assert not ifg["layover"].values.all()   # the open floor
+    assert main(["interferogram", str(image), "-o", str(tmp_path / "plain"), "--no-unwrap",
+                 "-q", "--no-masks"]) == 0
+    assert "shadow" not in set(map(str, load(tmp_path / "plain" /
+                                             INTERFEROMETRY_FILES["interferogram"]).variables))

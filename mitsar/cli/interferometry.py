@@ -25,6 +25,7 @@ from mitsar.experiment.options import InterferometryOptions
 from mitsar.experiment.parsers import parse_interferometry
 from mitsar.experiment.table import Table
 from mitsar.io import ProductFileError, check_writable, load
+from mitsar.products.requests import scene_of
 
 __all__ = ["cmd_interferogram", "interferometry_options"]
 
@@ -85,7 +86,11 @@ def cmd_interferogram(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     log(args, f"interferogram of channels {options.pair[0]}-{options.pair[1]} of {args.image} "
               f"({options.looks[0]} x {options.looks[1]} looks) ...")
-    result = run_interferometry(image, options, where=args.image, quiet=args.quiet)
+    scene = None if args.no_masks else (args.scene or scene_of(image))
+    if scene is not None:
+        log(args, f"layover and shadow masks from the scene {scene} ...")
+    result = run_interferometry(image, options, where=args.image, quiet=args.quiet,
+                                scene=scene)
     paths = write_interferometry(out, result, overwrite=args.overwrite)
     log(args, f"wrote {', '.join(str(p) for p in paths.values())} "
               f"({time.perf_counter() - start:.1f} s)")

@@ -172,6 +172,11 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_argument("--min-coherence", type=float, metavar="GAMMA",
                      help="coherence below which pixels are not unwrapped and not in the "
                      "point cloud (default: [interferometry] min_coherence, else 0.3)")
+    sub.add_argument("--scene", metavar="XML|NAME",
+                     help="the scene the image was simulated from: its layover and shadow "
+                     "pixels are masked (default: the scene the image records, if any)")
+    sub.add_argument("--no-masks", action="store_true",
+                     help="no layover/shadow masks even where the image records its scene")
     sub.set_defaults(func=cmd_interferogram)
 
     sub = _file_command(commands, common, "plot", cmd_plot, "plot a product file",
