@@ -108,6 +108,13 @@ def test_point_scatterer_height_noise_free():
     assert ifg["height"].values[10, 20] == pytest.approx(0.12, abs=1e-9)
     for name, variable in ifg.data_vars.items():
         assert variable.attrs["units"] is not None and variable.attrs["long_name"], name
+    # the product describes itself (mitsar.products.interferogram) and its validator names a gap
+    from mitsar.errors import ParameterError
+    from mitsar.products.interferogram import validate_interferogram
+
+    assert validate_interferogram(ifg) is ifg
+    with pytest.raises(ParameterError, match="height_std"):
+        validate_interferogram(ifg.drop_vars("height_std"))
 
 
 def test_sign_convention_and_ping_pong_doubles_the_phase():

@@ -43,27 +43,17 @@ from mitsar.interferometry.phase_statistics import predicted_phase_std
 from mitsar.interferometry.unwrapping import tie_to_reference
 from mitsar.interferometry.unwrapping import unwrap as snaphu_unwrap
 from mitsar.model.radar import SPEED_OF_LIGHT
+from mitsar.products.interferogram import INTERFEROGRAM_SCHEMA, validate_interferogram
 
 __all__ = ["INTERFEROGRAM_VARIABLES", "interferogram"]
 
 WHERE = "interferogram"
 
 INTERFEROGRAM_VARIABLES: dict[str, tuple[str, str]] = {
-    "interferogram": ("1", "multilooked flat interferogram s1 s2* (image units squared)"),
-    "amplitude": ("1", "geometric mean amplitude of the two channels (image units)"),
-    "phase": ("rad", "wrapped flat interferometric phase"),
-    "reference_phase": ("rad", "phase (2 pi / lambda)(L1 - L2) of the reference surface"),
-    "coherence": ("1", "boxcar coherence estimate (biased upward for few looks)"),
-    "coherence_snr": ("1", "thermal-noise coherence predicted from the image's noise power"),
-    "unwrapped_phase": ("rad", "unwrapped flat phase tied to the reference surface"),
-    "connected_component": ("1", "SNAPHU connected component (0: none)"),
-    "height": ("m", "world z of the scatterer"),
-    "position": ("m", "world position of the scatterer"),
-    "pixel_position": ("m", "world position of the (multilooked) pixel"),
-    "height_std": ("m", "predicted height standard deviation (Cramer-Rao)"),
-    "looks": ("1", "number of valid pixels averaged"),
-}
-"""Variables of the interferogram dataset: (CF units, long_name)."""
+    name: (variable.units, variable.long_name)
+    for name, variable in INTERFEROGRAM_SCHEMA.variables.items()}
+"""Variables of the interferogram dataset: (CF units, long_name), from its schema
+(:data:`mitsar.products.interferogram.INTERFEROGRAM_SCHEMA`)."""
 
 _REQUIRED = ("image", "position", "transmitter_offset", "receiver_offset",
              "aperture_position", "aperture_attitude")
@@ -233,7 +223,7 @@ def interferogram(image: xr.Dataset, pair: tuple[int, int] = (0, 1),
                      min_coherence=float(min_coherence),
                      reference_pixel=[-1, -1] if reference_pixel is None
                      else [int(i) for i in reference_pixel])
-    return out
+    return validate_interferogram(out, WHERE)
 
 
 def _unwrap_kwargs(options: Mapping[str, Any] | None) -> dict[str, Any]:

@@ -8,7 +8,10 @@ what is missing (docs/products.md):
 * :mod:`~mitsar.products.raw` — dechirped FMCW samples with their track, and the accessors
   (:func:`~mitsar.products.raw.radar_of`, :func:`~mitsar.products.raw.look_of`,
   :func:`~mitsar.products.raw.track_geometry`);
-* :mod:`~mitsar.products.image` — focused pixels on a grid, with coverage;
+* :mod:`~mitsar.products.image` — focused pixels on a grid, with coverage (a ``channel`` dim
+  for a multi-channel radar);
+* :mod:`~mitsar.products.interferogram` — a channel pair's phase, coherence, heights and
+  their predicted noise (:func:`mitsar.interferometry.interferogram`);
 * :mod:`~mitsar.products.requests` — what a run asks of its later stages (focus options,
   metrics target, ISLR extent, targets, scene), written into the raw product when it is made
   and carried into the image, so no later stage parses the experiment again;
