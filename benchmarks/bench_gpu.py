@@ -24,6 +24,7 @@ otherwise). Not a test: ``python benchmarks/bench_gpu.py [--scale 1] [--backends
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
 import os
@@ -168,14 +169,11 @@ def _print_row(name: str, case: str, result: dict) -> None:
 
 def _device_names() -> dict:
     names = {"cpu": platform.processor() or platform.machine(), "cpu_count": os.cpu_count()}
-    try:
-        with open("/proc/cpuinfo") as info:
-            for line in info:
-                if line.startswith("model name"):
-                    names["cpu"] = line.split(":", 1)[1].strip()
-                    break
-    except OSError:
-        pass
+    with contextlib.suppress(OSError), open("/proc/cpuinfo") as info:  # no /proc: the generic
+        for line in info:                                                   # name stays
+            if line.startswith("model name"):
+                names["cpu"] = line.split(":", 1)[1].strip()
+                break
     try:
         names["gpu"] = subprocess.run(
             ["nvidia-smi", "--query-gpu=name,driver_version,memory.total", "--format=csv,noheader"],
