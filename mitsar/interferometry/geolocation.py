@@ -147,10 +147,9 @@ def ambiguity_height(pixels: ArrayLike, geometry: PairGeometry, wavelength: floa
     phase : array_like
         Flat phase about which the cycle is taken [rad] (0: the reference surface).
     """
-    phi = np.asarray(phase, float)
-    up = phase_to_position(phi + np.pi, pixels, geometry, wavelength)[..., 2]
-    down = phase_to_position(phi - np.pi, pixels, geometry, wavelength)[..., 2]
-    return np.abs(up - down)
+    # the central difference of height_sensitivity over a whole cycle (step pi)
+    return np.abs(2 * np.pi * height_sensitivity(phase, pixels, geometry, wavelength,
+                                                 step=np.pi))
 
 
 def first_order_ambiguity_height(wavelength: ArrayLike, slant_range: ArrayLike,
