@@ -25,6 +25,7 @@ RANKS = {
     "mitsar.raw": 6,
     "mitsar.focus": 7,
     "mitsar.quality": 8, "mitsar.interferometry": 8, "mitsar.plots": 8, "mitsar.export": 8,
+    "mitsar.features": 8.5,
     "mitsar.experiment": 9,
     "mitsar.ambiguity": 10,
     "mitsar.report": 11,
