@@ -6,7 +6,10 @@ best of ``--rounds``:
 
 1. the tracer (:func:`mitsar.simulate_scene`): one monostatic receiver against two receivers
    5 cm apart vertically (docs/interferometry.md) — channels x sweeps per second and the ratio
-   of the two walls (issue 22 asks < 1.3: rays shared by the receivers);
+   of the two walls (issue 22 asks < 1.3: rays shared by the receivers), and apart from it
+   the time of the tracer's own Dr.Jit kernels (rays, visibility, deposits: Dr.Jit's kernel
+   history) — the rest of the wall is the histogram -> raw synthesis (one inverse FFT per
+   sweep and channel, NumPy) that every channel needs for its own raw data;
 2. the analytic simulator (:func:`mitsar.simulate_point_targets`, one point target): the same;
 3. back-projection of every channel onto one grid (:func:`mitsar.focus`, 256^2 pixels):
    channel-pixel-pulses per second and the ratio.
@@ -23,6 +26,8 @@ import warnings
 from collections.abc import Callable
 from typing import Any
 
+import drjit as dr
+
 import mitsar
 from mitsar.scene import load_scene
 
@@ -38,6 +43,22 @@ def _best(run: Callable[[], Any], rounds: int) -> tuple[float, Any]:
         result = run()
         best = min(best, time.perf_counter() - start)
     return best, result
+
+
+def _kernel_seconds(run: Callable[[], Any], rounds: int) -> float:
+    """Best of ``rounds`` of the summed execution time of the Dr.Jit kernels ``run`` launches
+    (Dr.Jit's kernel history) [s]."""
+    dr.set_flag(dr.JitFlag.KernelHistory, True)
+    best = math.inf
+    try:
+        for _ in range(rounds):
+            dr.kernel_history()  # clear
+            run()
+            best = min(best, sum(entry.get("execution_time", 0.0)
+                                 for entry in dr.kernel_history()) / 1e3)
+    finally:
+        dr.set_flag(dr.JitFlag.KernelHistory, False)
+    return best
 
 
 def main() -> None:
@@ -59,11 +80,14 @@ def main() -> None:
         channels = radar.channel_count
         traced_wall, _ = _best(lambda r=radar: mitsar.simulate_scene(r, track, LOOK, scene),
                                args.rounds)
+        kernels = _kernel_seconds(lambda r=radar: mitsar.simulate_scene(r, track, LOOK, scene),
+                                  args.rounds)
         analytic_wall, raw = _best(lambda r=radar: mitsar.simulate_point_targets(
             r, track, LOOK, target), args.rounds)
         focus_wall, image = _best(lambda r=raw: mitsar.focus(r, "bpa", grid), args.rounds)
         pixels = image["position"].shape[0] * image["position"].shape[1]
-        walls[name] = {"trace": traced_wall, "analytic": analytic_wall, "bpa": focus_wall}
+        walls[name] = {"trace": traced_wall, "tracer kernels": kernels,
+                       "analytic": analytic_wall, "bpa": focus_wall}
         rows.append((name, channels * args.sweeps / traced_wall,
                      channels * args.sweeps / analytic_wall,
                      channels * pixels * raw.sizes["sweep"] / focus_wall / 1e6))
@@ -76,6 +100,8 @@ def main() -> None:
     print("wall of 2 receivers / 1 receiver: " + ", ".join(
         f"{key} {two[key] / one[key]:.2f}x" for key in one) + " (issue 22 target for the "
         "tracer: < 1.3x)")
+    print("tracer kernels [ms]: " + ", ".join(f"{name} {wall['tracer kernels'] * 1e3:.1f}"
+                                              for name, wall in walls.items()))
 
 
 if __name__ == "__main__":

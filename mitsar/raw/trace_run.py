@@ -83,7 +83,8 @@ class TraceRun:
     def __init__(self, where: str, radar: Radar, trajectory: Trajectory, look: Look, scene: Any,
                  options: TraceOptions,
                  navigation: Trajectory | NavigationErrors | None = None,
-                 motion: dict | None = None) -> None:
+                 motion: dict | None = None, channels: tuple[int, ...] | None = None
+                 ) -> None:
         """Resolve and validate one acquisition.
 
         Parameters
@@ -96,6 +97,10 @@ class TraceRun:
             The caller's layer of the trace request (its ``options=`` with its keywords over
             them); laid over the scene integrator's layer and the defaults
             (:mod:`mitsar.model.trace_options`) into :attr:`config`.
+        channels : tuple of int, optional
+            Channels of a multi-channel radar that share one transmitter, traced together
+            (one trace, a histogram per receiver; :meth:`_channels`); default the request's
+            ``channel``.
         """
         if not isinstance(radar, Radar):
             raise ParameterError(where, "radar", "a mitsar.Radar", type(radar))
@@ -137,7 +142,8 @@ class TraceRun:
                      else antenna_frame(receiver_look, *self.geometry.attitude.T))
         self.setup = make_setup(radar, self.frames, self.config, self.config.receiver_offset,
                                 rx_frames)
-        self.channel, self.trace_geometry = self._channel(where, radar)
+        self.channels, self.trace_geometry = self._channels(where, radar, channels)
+        self.channel = None if self.channels is None else self.channels[0]
         self.backscatter = self.config.backscatter
         if self.setup.bistatic and self.backscatter:
             raise ParameterError(where, "backscatter", "False with a bistatic receiver (direct "
@@ -161,6 +167,10 @@ class TraceRun:
                                  self.config.physical_optics)
         low, high = range_limits(self.scatterers, self.geometry.position,
                                  trajectory.max_speed(), radar, trajectory.duration)
+        if self.channels is not None:  # half paths of phase centres off the track point
+            reach = max(float(np.linalg.norm(offset))
+                        for offset in (*radar.channel_offsets()[0], *radar.channel_offsets()[1]))
+            low, high = low - reach, high + reach
         if self.config.max_depth > 1:
             low, high = _multipath_limits(self.scene, self.geometry.position, low, high,
                                           radar, trajectory.max_speed(), self.config.max_depth,
@@ -187,23 +197,27 @@ class TraceRun:
             self.motion.shape_motions(facets.shape_ids) if self.motion.rotating else None)
         self.orders = max(self.config.max_depth, 1 if facets is None else 2)
 
-    def _channel(self, where: str, radar: Radar) -> tuple[int | None, SweepGeometry]:
-        """The channel traced and the geometry the integrator traces it from.
+    def _channels(self, where: str, radar: Radar, channels: tuple[int, ...] | None
+                  ) -> tuple[tuple[int, ...] | None, SweepGeometry]:
+        """The channels traced together and the geometry the integrator traces them from.
 
-        A radar with phase centres (:attr:`Radar.has_channels`) is traced one channel at a
-        time (``config.channel``): the transmitter at the track point plus its body-frame
-        offset rotated by the attitude of the sweep, and, where the receiver is elsewhere, its
-        position per sweep in :attr:`TraceSetup.channel_receivers` (direct backscatter is then
-        deposited at half the exact path). Under TDM-MIMO (:attr:`Radar.is_tdm`) only the
-        sweeps of the channel's transmitter slot are traced (:meth:`Radar.firing`), each from
+        A radar with phase centres (:attr:`Radar.has_channels`) is traced one transmitter at a
+        time: ``channels`` (default ``(config.channel,)``) must share it, offset and slot. It
+        sits at the track point plus its body-frame offset rotated by the attitude of the
+        sweep; each channel's receiver is one of :attr:`TraceSetup.channel_receivers`: None
+        where it is the transmitter, else its position per sweep (its direct backscatter is
+        then deposited at half the exact path). One trace serves them all: the transmitter's
+        rays are shared (docs/interferometry.md §8). Under TDM-MIMO (:attr:`Radar.is_tdm`)
+        only the sweeps of the transmitter's slot are traced (:meth:`Radar.firing`), each from
         its own track point. A single-channel radar: the track itself.
         """
         if not radar.has_channels:
             return None, self.geometry
-        channel = self.config.channel
-        if channel >= radar.channel_count:
-            raise ParameterError(where, "channel", f"a channel of the radar, in [0, "
-                                 f"{radar.channel_count})", channel)
+        channels = (self.config.channel,) if channels is None else tuple(channels)
+        for channel in channels:
+            if not 0 <= channel < radar.channel_count:
+                raise ParameterError(where, "channel", f"a channel of the radar, in [0, "
+                                     f"{radar.channel_count})", channel)
         if self.config.max_depth > 1 or self.setup.bistatic:
             raise ParameterError(where, "max_depth" if self.config.max_depth > 1
                                  else "receiver_offset", "direct backscatter only (max_depth "
@@ -211,16 +225,23 @@ class TraceRun:
                                  "of channels is not traced yet (docs/interferometry.md)",
                                  self.config.max_depth if self.config.max_depth > 1
                                  else self.config.receiver_offset)
+        transmitters, receivers = radar.channel_offsets()
+        slots = radar.firing(np.arange(radar.transmitter_count))
+        group = {(transmitters[c], tuple(slots[c])) for c in channels}
+        if len(group) != 1:
+            raise ParameterError(where, "channels", "channels of one transmitter (one "
+                                 "offset and time slot) traced together", channels)
+        channel = channels[0]
         if radar.is_tdm:
             self.sweeps = self.sweeps[radar.firing(self.sweeps)[channel]]
-        transmitters, receivers = radar.channel_offsets()
         attitude = self.geometry.attitude.T
         transmitter = self.geometry.position + body_offset_to_world(transmitters[channel],
                                                                     *attitude)
-        if transmitters[channel] != receivers[channel]:
-            self.setup = dataclasses.replace(self.setup, channel_receivers=(
-                self.geometry.position + body_offset_to_world(receivers[channel], *attitude)))
-        return channel, dataclasses.replace(self.geometry, position=transmitter)
+        self.setup = dataclasses.replace(self.setup, channel_receivers=tuple(
+            None if receivers[c] == transmitters[c]
+            else self.geometry.position + body_offset_to_world(receivers[c], *attitude)
+            for c in channels))
+        return channels, dataclasses.replace(self.geometry, position=transmitter)
 
     def _facets(self, where: str, physical_optics: Any) -> FacetSet | None:
         """The facets that use physical optics, or None; their shapes stop multipath rays."""

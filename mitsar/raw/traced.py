@@ -95,7 +95,7 @@ def trace(radar: Radar, trajectory: Trajectory, look: Look, scene: Any, *,
     parts, indices = [], []
     for chosen, hist in run.chunks():
         indices.append(chosen)
-        parts.append(hist)
+        parts.append(hist if run.channels is None else hist[:, 0])  # the one channel
     sweeps = np.concatenate(indices)
     product = make_histogram_product(
         np.concatenate(parts, axis=0), run.radar, run.look, sweeps, run.ranges,
@@ -222,18 +222,34 @@ def _setup_for(run: TraceRun, config: Any) -> Any:
     return make_setup(run.radar, run.frames, config, run.setup.receiver_offset, rx_frames)
 
 
+def _transmitter_groups(radar: Radar) -> list[tuple[int, ...]]:
+    """The channels of a multi-channel radar grouped by transmitter (offset and time slot),
+    in channel order: one trace each (:class:`~mitsar.raw.trace_run.TraceRun`)."""
+    transmitters, _ = radar.channel_offsets()
+    slots = radar.firing(np.arange(radar.transmitter_count))
+    groups: dict[Any, list[int]] = {}
+    for channel in range(radar.channel_count):
+        groups.setdefault((transmitters[channel], tuple(slots[channel])), []).append(channel)
+    return [tuple(group) for group in groups.values()]
+
+
 def _trace_raw(run: TraceRun) -> tuple[TraceRun, NDArray[np.complex128], NDArray]:
-    """(run, raw samples (sweeps, samples), orders kept) of one traced acquisition, chunk by
-    chunk of sweeps (:func:`_synthesise`)."""
-    samples = np.zeros((len(run.sweeps), run.radar.samples_per_sweep), dtype=np.complex128)
+    """(run, raw samples, orders kept) of one traced acquisition, chunk by chunk of sweeps
+    (:func:`_synthesise`): samples (sweeps, samples_per_sweep), or (channels, sweeps,
+    samples_per_sweep) for the channels of one transmitter (:attr:`TraceRun.channels`)."""
+    receivers = 1 if run.channels is None else len(run.channels)
+    samples = np.zeros((receivers, len(run.sweeps), run.radar.samples_per_sweep),
+                       dtype=np.complex128)
     row = 0
     kept = np.arange(0)
     for chosen, hist in run.chunks():
-        samples[row:row + len(chosen)], kept = _synthesise(hist, np.arange(hist.shape[1]),
-                                                           run.config.orders, run.ranges,
-                                                           run.radar)
+        per_receiver = hist[:, None] if run.channels is None else hist
+        for k in range(receivers):
+            samples[k, row:row + len(chosen)], kept = _synthesise(
+                per_receiver[:, k], np.arange(hist.shape[-2]), run.config.orders, run.ranges,
+                run.radar)
         row += len(chosen)
-    return run, samples, kept
+    return run, samples if run.channels is not None else samples[0], kept
 
 
 def _synthesise(histogram: NDArray, available: NDArray, orders: tuple[int, ...] | None,
@@ -313,26 +329,25 @@ def simulate_scene(radar: Radar, trajectory: Trajectory, look: Look, scene: Any,
     request = _request("simulate_scene", options, changes)
     resolved = request.resolve("simulate_scene")  # refused before the scene is loaded
     check_noise("simulate_scene", radar, resolved.noise, resolved.normalized)
-    # One trace per receive channel of a radar with phase centres (docs/interferometry.md);
-    # the scene's scatterers are drawn once (cached on its integrator) and shared.
-    channels = range(radar.channel_count) if radar.has_channels else [None]
-    traced = [_trace_raw(TraceRun("simulate_scene", radar, trajectory, look, scene,
-                                  request if channels[0] is None
-                                  else request.replace(channel=channels[0]),
-                                  navigation, motion))]
-    for k in channels[1:]:  # the first channel's loaded scene: its scatterers are reused
-        shared = dataclasses.replace(request, channel=k, scene_params=None)
+    # One trace per transmitter of a radar with phase centres, serving all its receivers
+    # (docs/interferometry.md §8); the scene's scatterers are drawn once and shared.
+    groups = _transmitter_groups(radar) if radar.has_channels else [None]
+    traced = [_trace_raw(TraceRun("simulate_scene", radar, trajectory, look, scene, request,
+                                  navigation, motion, channels=groups[0]))]
+    for group in groups[1:]:  # the first group's loaded scene: its scatterers are reused
+        shared = dataclasses.replace(request, scene_params=None)
         traced.append(_trace_raw(TraceRun("simulate_scene", radar, trajectory, look,
-                                          traced[0][0].scene, shared, navigation, motion)))
+                                          traced[0][0].scene, shared, navigation, motion,
+                                          channels=group)))
     run, kept = traced[0][0], traced[0][2]
     sweeps = run.acquisition_sweeps
-    if radar.is_tdm:  # each channel traced its slot's sweeps: zeros in the others
-        samples = np.zeros((len(traced), len(sweeps), radar.samples_per_sweep), complex)
-        for k, (channel_run, channel_samples, _) in enumerate(traced):
-            samples[k, np.searchsorted(sweeps, channel_run.sweeps)] = channel_samples
+    if radar.has_channels:  # each group traced its slot's sweeps (TDM-MIMO: zeros elsewhere)
+        samples = np.zeros((radar.channel_count, len(sweeps), radar.samples_per_sweep), complex)
+        for group, (group_run, group_samples, _) in zip(groups, traced, strict=True):
+            samples[np.ix_(group, np.searchsorted(sweeps, group_run.sweeps))] = group_samples
     else:
-        samples = (np.stack([samples for _, samples, _ in traced]) if radar.has_channels
-                   else traced[0][1])
+        samples = traced[0][1]
+    channels = range(radar.channel_count)
     config = run.config
     attrs = run.attrs()
     attrs.update(simulator="ray tracing (radar integrator)", normalized=int(config.normalized),

@@ -300,13 +300,6 @@ def _contribute(scene: Any, scatterers: ScattererArrays, sweep_arrays: SweepArra
              for target, antenna in zip(scatterers.velocity, sweep_arrays.velocity,
                                         strict=True)]
     rdot = sum((qi - ai) * vi for qi, ai, vi in zip(q, a, v_rel, strict=True)) * inv_r
-    path, path_rate = r, rdot
-    if sweep_arrays.receiver is not None:  # a bistatic channel: half its exact path
-        b = [qi - at_sweep(rx) for qi, rx in zip(q, sweep_arrays.receiver, strict=True)]
-        rb = dr.sqrt(b[0] * b[0] + b[1] * b[1] + b[2] * b[2])
-        # the receiver rides with the antenna (its velocity; the attitude's rate neglected)
-        rbdot = sum(bi * vi for bi, vi in zip(b, v_rel, strict=True)) / rb
-        path, path_rate = half_path(r, rb), half_path(rdot, rbdot)
 
     # 2. Two-way pattern: the one-way sinc^2 power pattern is the amplitude factor.
     u_az, u_el, _ = frame_sines(d, lambda i, j: at_sweep(sweep_arrays.frame[i][j], f32))
@@ -329,11 +322,24 @@ def _contribute(scene: Any, scatterers: ScattererArrays, sweep_arrays: SweepArra
         retest = active & (code == 1)
         active &= dr.select(retest, ~scene.ray_test(ray, retest), code == 2)
 
-    # 5. Amplitude (radar equation, paper eq. 2 with the two-way pattern) and the deposit.
+    # 5. Amplitude (radar equation, paper eq. 2 with the two-way pattern) and the deposit of
+    #    each receiver of the transmitter into its own histogram rows: at the range (one at
+    #    the transmitter) or at half the exact path of a receiver elsewhere, with its rate
+    #    (the receiver rides with the antenna: its velocity; the attitude's rate neglected).
+    #    The rays, pattern and amplitude are the transmitter's, shared by its receivers.
     amp = one_way * dr.sqrt(sigma) * dr.select(constants["normalized"] > 0.0, 1.0,
                                                f32(constants["radar_const"] * inv_r * inv_r))
-    deposit(constants, re, im, sweep * constants["sweep_stride"], path, path_rate, amp,
-            at_scatterer(scatterers.phase), active)
+    phase = at_scatterer(scatterers.phase)
+    row = sweep * constants["sweep_stride"]
+    for k, receiver in enumerate(sweep_arrays.receivers):
+        path, path_rate = r, rdot
+        if receiver is not None:
+            b = [qi - at_sweep(rx) for qi, rx in zip(q, receiver, strict=True)]
+            rb = dr.sqrt(b[0] * b[0] + b[1] * b[1] + b[2] * b[2])
+            rbdot = sum(bi * vi for bi, vi in zip(b, v_rel, strict=True)) / rb
+            path, path_rate = half_path(r, rb), half_path(rdot, rbdot)
+        base = row if k == 0 else row + k * constants["receiver_stride"]
+        deposit(constants, re, im, base, path, path_rate, amp, phase, active)
 
 
 def backscatter_chunk(scene: Any, scatterers: ScattererArrays, geometry: SweepGeometry,
@@ -354,6 +360,11 @@ def backscatter_chunk(scene: Any, scatterers: ScattererArrays, geometry: SweepGe
     count = scatterers.count
     sweep_arrays = backscatter_sweep_arrays(geometry, frames, radar, chosen,
                                             setup.plane_normals, setup.channel_receivers)
+    receivers = len(sweep_arrays.receivers)
+    # how far a receiver's half path may differ from the transmitter's range [m]
+    apart = max((0.5 * float(np.linalg.norm(rx[chosen] - geometry.position[chosen],
+                                            axis=1).max())
+                 for rx in setup.channel_receivers or () if rx is not None), default=0.0)
     chunk = {**chunk_bounds(geometry, frames, radar, chosen, target_speed),
              "first": 0, "sweeps": len(chosen)}
     motion = sight_line_motion(geometry.position[chosen], geometry.slow_time[chosen],
@@ -363,7 +374,7 @@ def backscatter_chunk(scene: Any, scatterers: ScattererArrays, geometry: SweepGe
     # ray per sweep keep the lane kernels. Its probes share the rays at block boundaries unless
     # the caller caps the blocks (e.g. at scene changes).
     blocked = (block_kernel_applies(config, scatterers.static, sweep_arrays.planar)
-               and len(chosen) <= MAX_CHUNK_SWEEPS and sweep_arrays.receiver is None)
+               and len(chosen) <= MAX_CHUNK_SWEEPS)
     shared = blocked and visibility_block is None
     blocks = visibility_blocks(motion, float(config.visibility_feature),
                                len(chosen) if visibility_block is None
@@ -391,10 +402,10 @@ def backscatter_chunk(scene: Any, scatterers: ScattererArrays, geometry: SweepGe
         steps, uniform, half_span = chunk_step_arrays(geometry, frames, chosen)
         # The packets cover the bins the candidates can reach (their ranges at the middle
         # sweep, the antenna's excursion, the Doppler shift and two bins of float32 slack).
-        bin_lo, bin_width = packet_window(float(nearest[0]), float(farthest[0]), half_span,
-                                          constants)
+        bin_lo, bin_width = packet_window(float(nearest[0]), float(farthest[0]),
+                                          half_span + apart, constants)
         constants = constants.replace(bin_lo=bin_lo, bin_width=bin_width)
-        packets = packet_buffer(len(chosen), bin_width, exact)
+        packets = packet_buffer(receivers * len(chosen), bin_width, exact)
     if packets is not None:
         sweep_arrays.step = steps
         polynomial = uniform and amplitude_polynomial_holds(half_span, float(nearest[0]),
@@ -449,7 +460,7 @@ def backscatter_chunk(scene: Any, scatterers: ScattererArrays, geometry: SweepGe
     if packets is not None:
         with order_independent():  # one add per bin (no conflicts): any thread count
             add_packets(packets, constants, len(chosen), constants.value("bin_width"), re, im,
-                        units)
+                        units, receivers)
             dr.eval(re, im)
 
 

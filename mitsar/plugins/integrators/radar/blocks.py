@@ -24,6 +24,7 @@ from mitsar.model import histogram as hg
 from mitsar.model.doublelobe import TABLE_SIZE, interp_theta_table
 from mitsar.model.geometry.antenna import field_pattern
 from mitsar.model.radar import SPEED_OF_LIGHT
+from mitsar.model.signal import half_path
 from mitsar.plugins.integrators.radar.config import histogram_buffer_length
 from mitsar.plugins.integrators.radar.constants import (
     MAX_HALF_SPAN,
@@ -242,6 +243,13 @@ def block_trace(scatterers: ScattererArrays, sweep_arrays: SweepArrays, constant
       the small rest ``j (j |s|^2 + g d_j) / (R_j + R_a)`` and the residual video phase in
       float32 (chunks span at most :data:`MAX_HALF_SPAN` from the anchor); otherwise the
       change in float64; then :func:`~mitsar.plugins.ops.sincos_turns` in float32;
+    - receivers (``sweep_arrays.receivers``): each receiver of the transmitter gets its own
+      packet rows ``k sweeps + s``; one at the transmitter deposits as above, one elsewhere at
+      half its exact path ``P_j = (R_j + R'_j)/2`` (:func:`mitsar.model.signal.half_path`),
+      ``R'_j`` its own range advanced as ``R_j`` is from its own anchor vector (a rigid body
+      offset moves by the same step ``s`` over a uniform chunk), ``P``'s ramp from
+      ``(g + g')/2`` and its rest, Doppler and residual video phase as the half sums; the
+      beam, visibility and amplitude are the transmitter's, shared by all its receivers;
     - deposit: one packet of four values (re, im of the lower and of the upper bin) added at
       ``4 (s bins + lower)`` of ``packets``, non-atomically (``ReduceMode.Expand``: a copy per
       thread, summed afterwards): int64 in fixed-point units (``units`` per amplitude unit,
@@ -295,6 +303,27 @@ def block_trace(scatterers: ScattererArrays, sweep_arrays: SweepArrays, constant
     weight = dr.gather(f32, scatterers.weight, m)
     offset = f32(dr.gather(u32, scatterers.table_row, m) * TABLE_SIZE)
     r0f = f32(r0)
+    # Receivers elsewhere than the transmitter: their anchor vector, half path and its phase
+    # and bin at the anchor (float64 once per lane, as the transmitter's above).
+    legs: list[Any] = []
+    for receiver in sweep_arrays.receivers:
+        if receiver is None:
+            legs.append(None)
+            continue
+        leg = SimpleNamespace(receiver=receiver)
+        leg.o0 = [qi - dr.gather(f64, c, anchor) for qi, c in zip(q, receiver, strict=True)]
+        leg.r0 = dr.sqrt(leg.o0[0] * leg.o0[0] + leg.o0[1] * leg.o0[1] + leg.o0[2] * leg.o0[2])
+        leg.path0 = half_path(r0, leg.r0)
+        cycles = (hg.deposit_cycles(leg.path0 * (2.0 / SPEED_OF_LIGHT), constants,
+                                    constants["rvp"]) + dr.gather(f64, scatterers.phase, m))
+        leg.cycles0_64 = cycles - dr.floor(cycles)
+        leg.cycles0 = f32(leg.cycles0_64)
+        position = (leg.path0 - constants["first_range"]) * constants["inv_step"]
+        leg.bin0 = dr.floor(position)
+        leg.fraction0 = f32(position - leg.bin0)
+        leg.bin0 = i32(leg.bin0)
+        leg.r0f, leg.path0f = f32(leg.r0), f32(leg.path0)
+        legs.append(leg)
     radar32 = SimpleNamespace(carrier_frequency=constants.f32("fc"),
                               chirp_rate=constants.f32("chirp_rate"))
     rvp, inv_step = constants.f32("rvp"), constants.f32("inv_step")
@@ -342,6 +371,18 @@ def block_trace(scatterers: ScattererArrays, sweep_arrays: SweepArrays, constant
         sines0 = frame_sines(o0f, fixed)
         sines_step = frame_sines(step, fixed)
         along0, along_step = dr.dot(o0f, velocity), dr.dot(step, velocity)
+        for leg in legs:
+            if leg is None:
+                continue
+            g_rx64 = (leg.o0[0] * step64[0] + leg.o0[1] * step64[1]
+                      + leg.o0[2] * step64[2]) / leg.r0
+            leg.lin, leg.g = f32(2.0 * g_rx64 * leg.r0), f32(g_rx64)
+            # the half path's carrier ramp, -j (g + g')/2 (2 f_c/c), exactly as above
+            ramp64 = -0.5 * (g64 + g_rx64) * hg.carrier_cycles_per_metre(constants)
+            ramp64 = ramp64 - dr.round(ramp64)
+            leg.ramp_hi = f32(ramp64)
+            leg.ramp_lo = f32(ramp64 - f64(leg.ramp_hi))
+            leg.along0 = dr.dot(mi.Vector3f(*(f32(c) for c in leg.o0)), velocity)
     if polynomial:
         # 5. The amplitude as a polynomial in t = (j - centre) / half over the chunk's sweeps
         # [-anchor, sweeps - 1 - anchor], through its values at the Chebyshev nodes.
@@ -379,6 +420,36 @@ def block_trace(scatterers: ScattererArrays, sweep_arrays: SweepArrays, constant
             return value
         shifted = mi.Float64(value) + _ROUNDING_MAGIC
         return dr.reinterpret_array(mi.Int64, shifted) - _MAGIC_BITS
+
+    def receiver_leg(leg: Any, s: Any, j: Any, tx: SimpleNamespace) -> tuple[Any, Any]:
+        """Bin position (relative to ``leg.bin0``) and wrapped phase [cycles] of sweep ``s``
+        for a receiver away from the transmitter: half the exact path and its rate, from the
+        transmitter's range change ``tx`` and the receiver's own (uniform chunks: advanced as
+        the transmitter's range; otherwise float64 from the gathered phase centre)."""
+        if uniform:
+            change = j * (j * quad - leg.lin)  # R'_j^2 - R'_a^2 [m^2]
+            r = dr.sqrt(leg.r0f * leg.r0f + change)
+            inv = 1.0 / (r * (r + leg.r0f))
+            own = change * r * inv  # R'_j - R'_a [m]
+            delta = half_path(tx.delta, own)
+            rdot = half_path(tx.rdot, -dr.fma(-j, along_step, leg.along0) * (r + leg.r0f) * inv)
+            rest = half_path(tx.rest, j * dr.fma(leg.g, own, j * quad) * (r * inv))
+            turns = j * leg.ramp_hi
+            ramp = (turns - dr.round(turns)) + dr.fma(j, leg.ramp_lo,
+                                                      dr.fma(j, leg.ramp_hi, -turns))
+            cycles = (leg.cycles0 + ramp + carrier * rest
+                      + rvp * hg.rvp_cycles_change(delta, leg.path0f, radar32))
+        else:
+            b64 = [qi - dr.gather(f64, c, s) for qi, c in zip(q, leg.receiver, strict=True)]
+            rb64 = dr.sqrt(b64[0] * b64[0] + b64[1] * b64[1] + b64[2] * b64[2])
+            change64 = half_path(tx.r64, rb64) - leg.path0
+            cycles64 = leg.cycles0_64 + hg.deposit_cycles_change(change64, leg.path0,
+                                                                 constants, constants["rvp"])
+            cycles = f32(cycles64 - dr.floor(cycles64))
+            b = mi.Vector3f(*(f32(c) for c in b64))
+            delta = f32(change64)
+            rdot = half_path(tx.rdot, -dr.dot(b, tx.v) / f32(rb64))
+        return leg.fraction0 + (delta + doppler * rdot) * inv_step, cycles
 
     def body(s: Any, count: Any) -> tuple[Any, Any]:
         """4.-6. One sweep: geometry, beam and bin, amplitude, phase, deposit."""
@@ -423,29 +494,40 @@ def block_trace(scatterers: ScattererArrays, sweep_arrays: SweepArrays, constant
 
             s_az, s_el, s_b = frame_sines(o, frame)
             amp = amplitude(o, frame)  # a turning frame moves the pattern: exact per sweep
+        tx = (SimpleNamespace(delta=delta, rdot=rdot, rest=rest) if uniform
+              else SimpleNamespace(r64=r64, rdot=rdot, v=v))
         # Beam test on the unnormalised direction: |u| < cull <=> |f.o| < cull R.
         in_beam = (s_b > 0.0) & (dr.abs(s_az) < cull_az * r) & (dr.abs(s_el) < cull_el * r)
-        # Bin: apparent range R_j + (f_c/K) dR/dt (hg.apparent_range) relative to bin0, with
-        # dR/dt = -(o.v)/R (o points from the antenna to the static scatterer).
-        x = fraction0 + (delta + doppler * rdot) * inv_step
-        lower, w_lo, w_hi = hg.split_weights(x, dr.floor)
-        lower = bin0 + i32(lower)
-        in_grid = (lower >= 0) & (lower < last_lower)
-        counted = in_beam & in_grid
-        slot = lower - bin_lo  # in the chunk's packet window (packet_window: always)
         if runs is None:
             seen = (dr.select(s < 64, seen0, seen1) >> u64(s & 63)) & 1
-            active = counted & (seen != 0) & lit
+            shared = in_beam & (seen != 0) & lit
         else:  # 32-bit compares: a tenth of the kernel less than the 64-bit mask test
-            active = counted & (s >= runs[0]) & (s < runs[1]) & lit
-        active &= (slot >= 0) & (slot < window)
-        sin_p, cos_p = sincos_turns(cycles)
-        v_re, v_im = (amp * per_unit) * cos_p, (amp * per_unit) * sin_p
-        value = packet(*(stored(v) for v in (v_re * w_lo, v_im * w_lo, v_re * w_hi,
-                                             v_im * w_hi)))
-        index = s * u32(window) + u32(dr.select(active, slot, 0))
-        dr.scatter_reduce(dr.ReduceOp.Add, packets, value, index, active,
-                          mode=dr.ReduceMode.Expand)
+            shared = in_beam & (s >= runs[0]) & (s < runs[1]) & lit
+        counted = None
+        for k, leg in enumerate(legs):
+            if leg is None:  # at the transmitter: its range
+                path_x = fraction0 + (delta + doppler * rdot) * inv_step
+                path_bin0, path_cycles = bin0, cycles
+            else:  # elsewhere: half the exact path, its rate and phase
+                path_x, path_cycles = receiver_leg(leg, s, j, tx)
+                path_bin0 = leg.bin0
+            # Bin: apparent range P_j + (f_c/K) dP/dt (hg.apparent_range) relative to bin0,
+            # with dR/dt = -(o.v)/R (o points from the antenna to the static scatterer).
+            lower, w_lo, w_hi = hg.split_weights(path_x, dr.floor)
+            lower = path_bin0 + i32(lower)
+            in_grid = (lower >= 0) & (lower < last_lower)
+            if counted is None:  # contributions counted on the first receiver
+                counted = in_beam & in_grid
+            slot = lower - bin_lo  # in the chunk's packet window (packet_window: always)
+            active = shared & in_grid & (slot >= 0) & (slot < window)
+            sin_p, cos_p = sincos_turns(path_cycles)
+            v_re, v_im = (amp * per_unit) * cos_p, (amp * per_unit) * sin_p
+            value = packet(*(stored(v) for v in (v_re * w_lo, v_im * w_lo, v_re * w_hi,
+                                                 v_im * w_hi)))
+            row = s if k == 0 else s + u32(k) * u32(sweeps)
+            index = row * u32(window) + u32(dr.select(active, slot, 0))
+            dr.scatter_reduce(dr.ReduceOp.Add, packets, value, index, active,
+                              mode=dr.ReduceMode.Expand)
         return s + 1, count + dr.select(counted, 1, 0)
 
     return dr.while_loop((first, dr.zeros(u32, width)), lambda s, count: s < end, body)[1]
@@ -472,8 +554,9 @@ def packet_window(nearest: float, farthest: float, half_span: float, constants: 
 
 def packet_buffer(sweeps: int, bins: int, integer: bool) -> Any:
     """A zeroed buffer for the packets of :func:`block_trace` (4 values per bin of ``sweeps``
-    histograms; :func:`~.config.histogram_buffer_length`: few lengths, few compilations), or
-    None beyond :data:`PACKET_BUFFER_LIMIT`."""
+    histograms: the chunk's sweeps times its receivers;
+    :func:`~.config.histogram_buffer_length`: few lengths, few compilations), or None beyond
+    :data:`PACKET_BUFFER_LIMIT`."""
     size = histogram_buffer_length(4 * sweeps * bins)
     kind = mi.Int64 if integer else mi.Float
     return None if size > PACKET_BUFFER_LIMIT else dr.zeros(kind, size)
@@ -491,12 +574,13 @@ MIN_PACKET_SWEEPS = 16
 
 
 def add_packets(packets: Any, constants: Constants, sweeps: int, width: int, re: Any, im: Any,
-                units: float | None) -> None:
+                units: float | None, receivers: int = 1) -> None:
     """Fold the packets of :func:`block_trace` into the histogram ``re + j im`` (order 0):
-    ``width`` (``constants["bin_width"]``) packets per sweep from bin ``constants["bin_lo"]``
-    (:func:`packet_window`); bin ``bin_lo + j`` of sweep ``s`` gets the lower half of packet
-    ``(s, j)`` and the upper half of packet ``(s, j - 1)`` (no deposit reaches past the last
-    bin: ``lower < bins - 1``).
+    ``width`` (``constants["bin_width"]``) packets per row from bin ``constants["bin_lo"]``
+    (:func:`packet_window`), row ``k sweeps + s`` for receiver ``k`` of ``receivers`` and
+    sweep ``s``; bin ``bin_lo + j`` of that sweep and receiver gets the lower half of packet
+    ``(row, j)`` and the upper half of packet ``(row, j - 1)`` (no deposit reaches past the
+    last bin: ``lower < bins - 1``).
 
     Integer packets (``units`` fixed-point units per amplitude unit) hold exact sums of the
     deposits, each rounded to one unit (~1e-12 of the amplitude bound; the deposits themselves
@@ -505,13 +589,18 @@ def add_packets(packets: Any, constants: Constants, sweeps: int, width: int, re:
     (docs/integrator.md §"Performance")."""
     u32, f64 = mi.UInt32, mi.Float64
     packet = _packet_type(units is not None)
-    idx = dr.arange(u32, sweeps * (width + 1))  # width + 1 histogram bins per packet row
+    idx = dr.arange(u32, receivers * sweeps * (width + 1))  # width + 1 bins per packet row
     row = idx // (constants["bin_width"] + 1)
     j = idx - row * (constants["bin_width"] + 1)
     flat = row * constants["bin_width"] + j  # packet (s, j)
     own = dr.gather(packet, packets, flat, j < constants["bin_width"])  # its lower half: bin j
     below = dr.gather(packet, packets, flat - 1, j > 0)  # packet (s, j - 1): its upper half
-    target = row * constants["sweep_stride"] + constants["bin_lo"] + j
+    if receivers == 1:
+        target = row * constants["sweep_stride"] + constants["bin_lo"] + j
+    else:  # row k sweeps + s: sweep s, receiver k
+        k = row // constants["sweeps"]
+        target = ((row - k * constants["sweeps"]) * constants["sweep_stride"]
+                  + k * constants["receiver_stride"] + constants["bin_lo"] + j)
     for part, out in ((0, re), (1, im)):
         if units is None:
             value = f64(own[part]) + f64(below[part + 2])

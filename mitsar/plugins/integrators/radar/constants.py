@@ -36,7 +36,8 @@ BACKSCATTER_FLOATS = ("fc", "chirp_rate", "first_range", "inv_step", "last_lower
                       "mid_turn", "mid_time", "slab_half")
 """Float64 constants of the backscatter kernels."""
 
-UINTS = ("sweep_stride", "bins", "first", "sweeps", "blocks", "width", "bin_lo", "bin_width")
+UINTS = ("sweep_stride", "receiver_stride", "bins", "first", "sweeps", "blocks", "width",
+         "bin_lo", "bin_width")
 """UInt32 constants of every kernel."""
 
 MULTIPATH_FLOATS = ("fc", "chirp_rate", "first_range", "inv_step", "last_lower", "beta_az",
@@ -117,7 +118,7 @@ class Constants:
 
 def backscatter_constants(radar: Radar, config: TraceOptions, grid: tuple[int, int],
                           step: float, orders: int, rvp: bool, normalized: bool,
-                          max_speed: float, planar: bool) -> Constants:
+                          max_speed: float, planar: bool, receivers: int = 1) -> Constants:
     """Constants of an acquisition for :data:`BACKSCATTER_FLOATS` (chunk values replaced per
     chunk and launch).
 
@@ -127,6 +128,10 @@ def backscatter_constants(radar: Radar, config: TraceOptions, grid: tuple[int, i
         Histogram bin grid (:func:`mitsar.model.histogram.bin_grid`); ``step`` its bin width [m].
     max_speed : float
         Largest relative speed of antenna and scatterers [m/s] (Doppler margin of the cull).
+    receivers : int
+        Receivers of the transmitter traced (:attr:`~.setup.TraceSetup.channel_receivers`):
+        bin ``b`` of order ``o`` of receiver ``k`` in sweep row ``s`` of the histogram buffer
+        is at ``s * sweep_stride + k * receiver_stride + o * bins + b``.
     """
     first_index, bins = grid
     cull = min(float(config.beam_cull), 1e30)
@@ -148,7 +153,8 @@ def backscatter_constants(radar: Radar, config: TraceOptions, grid: tuple[int, i
         "normalized": 1.0 if normalized else 0.0,
         "doppler_bins": max_speed * radar.carrier_frequency / radar.chirp_rate / step,
         "slab_half": 0.5 * config.slab_width if planar else 1e30,
-        "sweep_stride": orders * bins,
+        "sweep_stride": receivers * orders * bins,
+        "receiver_stride": orders * bins,
         "bins": bins,
         "first": 0,
         "sweeps": 1,
@@ -307,9 +313,10 @@ class SweepArrays:
     step : Vector or None
         Antenna step per sweep over the chunk [m] (Float64, width 1; block kernel,
         :func:`chunk_step_arrays`).
-    receiver : Vector or None
-        A channel's receive phase centre at mid-sweep [m] (Float64), where it is not the
-        transmitter (:attr:`~.setup.TraceSetup.channel_receivers`); None: monostatic.
+    receivers : tuple of (Vector or None)
+        The receive phase centre at mid-sweep [m] (Float64) of each receiver of the
+        transmitter (:attr:`~.setup.TraceSetup.channel_receivers`); None for a receiver at the
+        transmitter (monostatic). One monostatic receiver by default.
     """
 
     time: Any
@@ -323,7 +330,12 @@ class SweepArrays:
     blocks: VisibilityBlocks | None = None
     probes: SharedProbes | None = None
     step: Vector | None = None
-    receiver: Vector | None = None
+    receivers: tuple[Vector | None, ...] = (None,)
+
+    @property
+    def bistatic(self) -> bool:
+        """Whether some receiver is not at the transmitter."""
+        return any(receiver is not None for receiver in self.receivers)
 
 
 @dataclass
@@ -380,9 +392,11 @@ def _upload_frames(frames: NDArray) -> Frame:
 
 def backscatter_sweep_arrays(geometry: SweepGeometry, frames: NDArray, radar: Radar,
                              chosen: NDArray, plane_normals: NDArray,
-                             receivers: NDArray | None = None) -> SweepArrays:
+                             receivers: tuple[NDArray | None, ...] | None = None
+                             ) -> SweepArrays:
     """Per-sweep device arrays of the backscatter kernels for the sweeps ``chosen``
-    (``receivers``: a bistatic channel's receive phase centre per sweep of the acquisition)."""
+    (``receivers``: the receive phase centre per sweep of the acquisition of each receiver of
+    the transmitter, None for one at the transmitter; default one monostatic receiver)."""
     padded = _padded(chosen)
     pos, vel = geometry.position[padded], geometry.velocity[padded]
     mid = geometry.slow_time[padded] + radar.sweep_duration / 2
@@ -394,7 +408,8 @@ def backscatter_sweep_arrays(geometry: SweepGeometry, frames: NDArray, radar: Ra
         frame=_upload_frames(frames[padded]),
         # 3D (no plane normal): a kernel variant without the 2D slab test, compiled once.
         planar=bool(np.any(plane_normals[padded] != 0.0)),
-        receiver=None if receivers is None else _upload_vector(mi.Float64, receivers[padded]))
+        receivers=(None,) if receivers is None else tuple(
+            None if rx is None else _upload_vector(mi.Float64, rx[padded]) for rx in receivers))
 
 
 def visibility_block_arrays(blocks: NDArray) -> VisibilityBlocks:

@@ -165,7 +165,9 @@ def _make_class() -> type:
             ------
             sweep_indices : ndarray of int
             histogram : ndarray, shape (len(sweep_indices), max_depth, bins), complex128
-                Orders 0 .. max_depth - 1 (number of specular reflections).
+                Orders 0 .. max_depth - 1 (number of specular reflections); with
+                ``setup.channel_receivers``, shape (len(sweep_indices), receivers, max_depth,
+                bins): one histogram per receiver of the transmitter, from one trace.
 
             Notes
             -----
@@ -192,23 +194,28 @@ def _make_class() -> type:
             self.statistics = {"pairs": 0, "candidate_pairs": 0, "shadow_rays": 0,
                                "launches": 0, "rays": 0, "segments": 0, "captures": 0,
                                "visibility_rays": 0, "visibility_split": 0}
+            per_sweep = ((orders, bins) if setup.channel_receivers is None
+                         else (setup.receiver_count, orders, bins))
             if count == 0 and not multipath:
                 for start in range(0, len(sweeps), 1024):
                     chosen = sweeps[start:start + 1024]
-                    yield chosen, np.zeros((len(chosen), orders, bins), np.complex128)
+                    yield chosen, np.zeros((len(chosen), *per_sweep), np.complex128)
                 return
             per_chunk = max(1, min(SWEEPS_PER_CHUNK, config.chunk_lanes,
-                                   HISTOGRAM_CHUNK_ELEMENTS // (orders * bins)))
+                                   HISTOGRAM_CHUNK_ELEMENTS // (setup.receiver_count * orders
+                                                                * bins)))
             arrays = scatterer_arrays(scatterers) if count else None
             target_speed = scatterers.max_speed() if count else 0.0
-            if count and setup.channel_receivers is None and blocks.block_kernel_applies(
-                    config, target_speed == 0.0, setup.planar):
-                per_chunk = blocks.block_chunk_sweeps(per_chunk, bins,
+            receivers = setup.receiver_count
+            if count and blocks.block_kernel_applies(config, target_speed == 0.0,
+                                                     setup.planar):
+                per_chunk = blocks.block_chunk_sweeps(per_chunk, receivers * bins,
                                                       geometry.position[sweeps])
             max_speed = float(np.linalg.norm(geometry.velocity, axis=1).max()) + target_speed
             constants = backscatter_constants(radar, config, grid,
                                               hg.range_step(radar, config.bins_per_cell),
-                                              orders, rvp, normalized, max_speed, setup.planar)
+                                              orders, rvp, normalized, max_speed, setup.planar,
+                                              receivers)
             if multipath:
                 table = bounce.shape_table(scene, setup.absorbers)
                 rays, ray_ids = bounce.ray_arrays(setup.rays)
@@ -217,7 +224,7 @@ def _make_class() -> type:
             try:
                 for s0 in range(0, len(sweeps), per_chunk):
                     chosen = sweeps[s0:s0 + per_chunk]
-                    size = len(chosen) * orders * bins
+                    size = len(chosen) * receivers * orders * bins
                     # A buffer of a power-of-two size: its length is a literal of the compiled
                     # kernels, so sizing it per acquisition would recompile them every time
                     # (at most 7 sizes; a fixed 2^22 cost ~5 ms of zeroing per chunk).
@@ -231,7 +238,7 @@ def _make_class() -> type:
                     if multipath:
                         self._multipath_chunk(scene, table, rays, ray_ids, geometry, frames,
                                               setup, chosen, ray_constants, config, re, im)
-                    shape = (len(chosen), orders, bins)
+                    shape = (len(chosen), *per_sweep)
                     hist = np.empty(shape, np.complex128)  # filled part by part: no temporaries
                     hist.real[...] = np.asarray(re)[:size].reshape(shape)
                     hist.imag[...] = np.asarray(im)[:size].reshape(shape)

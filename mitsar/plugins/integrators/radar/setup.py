@@ -41,11 +41,13 @@ class TraceSetup:
     absorbers : tuple of mitsuba.Shape
         Shapes on which multipath rays stop instead of reflecting: those whose specular
         returns physical optics gives (docs/physical_optics.md §5).
-    channel_receivers : ndarray, shape (sweeps, 3), or None
-        The receive phase centre per sweep [m] of one channel of a multi-channel radar whose
-        receiver is not its transmitter (docs/interferometry.md): direct backscatter is then
-        deposited at half the exact path ``(|t - q| + |q - r|) / 2`` (lane kernels); None:
-        monostatic.
+    channel_receivers : tuple of (ndarray, shape (sweeps, 3), or None), or None
+        The receivers of one transmitter of a multi-channel radar (docs/interferometry.md):
+        per receiver its phase centre per sweep [m], or None for one at the transmitter.
+        One trace serves them all: the transmitter's rays (beam, visibility) are shared, and
+        each receiver's direct backscatter is deposited at half its exact path
+        ``(|t - q| + |q - r|) / 2`` into its own histogram rows. None: one monostatic
+        receiver.
     """
 
     ray_frames: NDArray
@@ -55,7 +57,12 @@ class TraceSetup:
     rays: RaySet | None
     planar: bool
     absorbers: tuple[Any, ...] = ()
-    channel_receivers: NDArray | None = None
+    channel_receivers: tuple[NDArray | None, ...] | None = None
+
+    @property
+    def receiver_count(self) -> int:
+        """Histograms per sweep: the receivers of :attr:`channel_receivers` (1 without)."""
+        return 1 if self.channel_receivers is None else len(self.channel_receivers)
 
     @property
     def bistatic(self) -> bool:
