@@ -25,7 +25,7 @@ import xarray as xr
 
 from mitsar.errors import ParameterError
 from mitsar.focus.autofocus.apply import correct_raw
-from mitsar.focus.grid import Grid, PointsGrid
+from mitsar.focus.grid import Grid, PointsGrid, VolumeGrid
 from mitsar.products.raw import radar_of
 
 __all__ = ["CHANNEL_ALGORITHMS", "channel_view", "focus_channels"]
@@ -107,7 +107,8 @@ def focus_channels(raw: xr.Dataset, algorithm: str, grid: Grid,
                              "channels hold the sweeps of different transmitters; "
                              "docs/interferometry.md)", autofocus)
     first = focus_one(channel_view(raw, 0), grid, autofocus)
-    pixels = PointsGrid(first["position"].values)
+    # a volume's voxels are in the scene frame already (the same for every channel)
+    pixels = grid if isinstance(grid, VolumeGrid) else PointsGrid(first["position"].values)
 
     def view(k: int) -> xr.Dataset:
         if autofocus is None:

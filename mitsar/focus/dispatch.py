@@ -6,6 +6,8 @@ images compare pixel for pixel.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 import xarray as xr
 
@@ -17,11 +19,13 @@ from mitsar.focus.bpa import focus_bpa
 from mitsar.focus.channels import focus_channels
 from mitsar.focus.ffbp import focus_ffbp
 from mitsar.focus.frequency_domain import focus_frequency_domain
-from mitsar.focus.grid import Grid, SlantGrid, from_dict
+from mitsar.focus.grid import Grid, SlantGrid, VolumeGrid, from_dict
 from mitsar.focus.mocomp import compensate, reference_line, reference_product
 from mitsar.focus.motion import is_straight_track
 from mitsar.focus.nesz import noise_variables
+from mitsar.focus.passes import COMBINE, focus_passes
 from mitsar.focus.referenced import focus_referenced
+from mitsar.focus.volume import focus_ffbp_volume
 from mitsar.focus.windows import WINDOWS
 from mitsar.model.radar import Radar
 from mitsar.products.image import make_image_product
@@ -31,27 +35,34 @@ ALGORITHMS = ("bpa", "rda", "wda", "fsa", "ffbp")
 """Names of the focusing algorithms."""
 
 
-def focus(raw: xr.Dataset, algorithm: str = "bpa", grid: Grid | dict | None = None, *,
+def focus(raw: xr.Dataset | Sequence[xr.Dataset], algorithm: str = "bpa",
+          grid: Grid | dict | None = None, *,
           window: str = "rect", range_window: str | None = None,
           azimuth_resolution: float | None = None, remove_rvp: bool = True,
           motion_correction: bool = True, backend: str = "drjit",
           range_upsample: int = 16, pixel_chunk: int | None = None,
           algorithm_options: dict | None = None, progress: bool = False,
           motion_compensation: bool = True, autofocus: str | None = None,
-          autofocus_options: dict | None = None) -> xr.Dataset:
-    """Focus a raw product into an image.
+          autofocus_options: dict | None = None, combine: str = "coherent") -> xr.Dataset:
+    """Focus a raw product into an image, or several passes into one image or volume.
 
     Parameters
     ----------
-    raw : xarray.Dataset
-        Raw product (:mod:`mitsar.raw.product`).
+    raw : xarray.Dataset or sequence of xarray.Dataset
+        Raw product (:mod:`mitsar.raw.product`); a list (or tuple) of raw products is a set
+        of passes, each back-projected onto the same pixels or voxels and summed
+        (:mod:`mitsar.focus.passes`; tomographic back-projection on a
+        :class:`~mitsar.focus.grid.VolumeGrid`, docs/focusing.md "3-D focusing from several
+        passes").
     algorithm : {"bpa", "rda", "wda", "fsa", "ffbp"}
         Focusing algorithm: back-projection (any trajectory, any grid), its fast factorised
         form ("ffbp", any trajectory, any grid; :mod:`mitsar.focus.ffbp`) or the frequency-domain
         range-Doppler, wavenumber-domain and frequency-scaling algorithms (straight track at
         constant velocity, slant grids only; see ``docs/focusing.md``).
-    grid : SlantGrid, PlaneGrid, PointsGrid, dict or None
-        Output grid; a dict is passed to :func:`mitsar.focus.grid.from_dict`; default slant grid.
+    grid : SlantGrid, PlaneGrid, PointsGrid, VolumeGrid, dict or None
+        Output grid; a dict is passed to :func:`mitsar.focus.grid.from_dict`; default slant grid
+        (one raw product). A :class:`~mitsar.focus.grid.VolumeGrid` gives an image with dims
+        ``("z", "y", "x")`` (back-projection: "bpa", or "ffbp" slice by slice).
     window : str
         Azimuth window over the processed aperture (and the range window unless
         ``range_window`` is given): "rect", "hamming", "hann", "taylor".
@@ -87,6 +98,10 @@ def focus(raw: xr.Dataset, algorithm: str = "bpa", grid: Grid | dict | None = No
     autofocus_options : dict, optional
         Options of the autofocus method (:class:`mitsar.focus.autofocus.PGAOptions`,
         :class:`mitsar.focus.autofocus.EntropyOptions`).
+    combine : {"coherent", "incoherent"}
+        Several passes: the mean of their complex images (phase-stable navigation: the passes
+        form an aperture across the line of sight) or ``sqrt(mean |image|^2)`` (an amplitude,
+        for passes without phase-stable navigation). Only with a list of raw products.
 
     Returns
     -------
@@ -95,6 +110,18 @@ def focus(raw: xr.Dataset, algorithm: str = "bpa", grid: Grid | dict | None = No
         positions), attributes ``range_resolution``, ``azimuth_resolution``, ``range_axis``,
         ``azimuth_axis``, grid description and provenance.
     """
+    if isinstance(raw, list | tuple):  # several passes onto the same pixels (focus.passes)
+        return focus_passes(raw, algorithm, grid, combine, lambda one, chosen: focus(
+            one, algorithm, chosen, window=window, range_window=range_window,
+            azimuth_resolution=azimuth_resolution, remove_rvp=remove_rvp,
+            motion_correction=motion_correction, backend=backend,
+            range_upsample=range_upsample, pixel_chunk=pixel_chunk,
+            algorithm_options=algorithm_options, progress=progress,
+            motion_compensation=motion_compensation, autofocus=autofocus,
+            autofocus_options=autofocus_options), autofocus)
+    if combine != "coherent":
+        raise ParameterError("focus", "combine", f"'coherent' for one raw product (one of "
+                             f"{COMBINE} combines a list of passes)", combine)
     if not isinstance(raw, xr.Dataset):
         raise ParameterError("focus", "raw", "a raw product (xarray.Dataset from "
                              "mitsar.simulate_point_targets, simulate_scene, read_raw, load)",
@@ -131,7 +158,10 @@ def focus(raw: xr.Dataset, algorithm: str = "bpa", grid: Grid | dict | None = No
     grid = SlantGrid() if grid is None else grid
     if not isinstance(grid, Grid):
         raise ParameterError("focus", "grid", "None, a dict (mitsar.grid.from_dict) or a "
-                             "SlantGrid, PlaneGrid or PointsGrid", type(grid).__name__)
+                             "SlantGrid, PlaneGrid, PointsGrid or VolumeGrid",
+                             type(grid).__name__)
+    if isinstance(grid, VolumeGrid):
+        _check_volume(raw, algorithm, autofocus)
     if "channel" in raw["raw"].dims:  # every channel onto channel 0's pixels (focus.channels)
         return focus_channels(raw, algorithm, grid, lambda view, chosen, method: focus(
             view, algorithm, chosen, window=window, range_window=range_window,
@@ -169,7 +199,8 @@ def focus(raw: xr.Dataset, algorithm: str = "bpa", grid: Grid | dict | None = No
         extra = {"rvp_removed": 0, "motion_correction": 0, "backend": "numpy", **extra}
     elif algorithm == "ffbp":
         layout = grid.resolve(raw, radar, nominal_azimuth)
-        values, coverage, extra = focus_ffbp(
+        ffbp = focus_ffbp_volume if isinstance(grid, VolumeGrid) else focus_ffbp
+        values, coverage, extra = ffbp(
             raw, layout, half_width=half_width, window=window, range_window=range_window,
             remove_rvp=remove_rvp, motion_correction=motion_correction,
             range_upsample=range_upsample, options=algorithm_options, progress=progress)
@@ -191,7 +222,7 @@ def focus(raw: xr.Dataset, algorithm: str = "bpa", grid: Grid | dict | None = No
             motion_correction=motion_correction, backend=backend,
             range_upsample=range_upsample, progress=progress,
             pixel_chunk=pixel_chunk or (1 << 16 if progress else 1 << 20))
-    shape = layout["position"].shape[:2]
+    shape = layout["position"].shape[:-1]  # the grid's dims: two, or three for a volume
     image = make_image_product(raw, np.reshape(values, shape), layout, {**processing, **extra},
                                coverage=np.reshape(coverage, shape))
     if algorithm == "bpa" and "reference_range" not in raw.variables:  # docs/metrics.md §Noise
@@ -210,6 +241,22 @@ def focus(raw: xr.Dataset, algorithm: str = "bpa", grid: Grid | dict | None = No
         motion_correction=motion_correction, backend=backend, range_upsample=range_upsample,
         pixel_chunk=pixel_chunk, algorithm_options=algorithm_options, progress=progress,
         motion_compensation=motion_compensation), autofocus, autofocus_options, settings)
+
+
+def _check_volume(raw: xr.Dataset, algorithm: str, autofocus: str | None) -> None:
+    """Refuse, before any work, what a volume grid cannot be focused with: the spectral
+    algorithms (slant grids only), recordings referenced to a scene point (their aperture is
+    chosen for a 2-D grid's centre) and autofocus (its phase estimate reads a 2-D image)."""
+    if algorithm not in ("bpa", "ffbp"):
+        raise ParameterError("focus", "algorithm", "'bpa' or 'ffbp' with a VolumeGrid (the "
+                             "spectral algorithms focus slant grids only)", algorithm)
+    if "reference_range" in raw.variables:
+        raise ParameterError("focus", "grid", "a 2-D grid for recorded data referenced to a "
+                             "scene point (raw has 'reference_range')", "VolumeGrid")
+    if autofocus is not None:
+        raise ParameterError("focus", "autofocus", "None with a VolumeGrid (autofocus "
+                             "estimates its phase from a 2-D image: autofocus a plane through "
+                             "the volume and focus the corrected raw product)", autofocus)
 
 
 def _straighten(raw: xr.Dataset, radar: Radar, grid: Grid, nominal_azimuth: float,

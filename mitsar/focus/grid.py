@@ -25,6 +25,10 @@ line of sight and its azimuth axis the direction normal to it in which the line 
   moves it with the heading).
 * :class:`PlaneGrid`: ``origin + u axis_u + v axis_v`` (ground plane, a wall, ...).
 * :class:`PointsGrid`: any list of 3-D points.
+* :class:`VolumeGrid`: voxels ``(x, y, z)`` of the scene frame, image dims ``("z", "y", "x")``
+  (x fastest): slice ``k`` of a volume is the horizontal plane ``z = z_k`` with the dims
+  ``(v, u) = (y, x)`` of a :class:`PlaneGrid` with ``axis_u = x``, ``axis_v = y``, pixel for
+  pixel (docs/focusing.md, "3-D focusing from several passes").
 """
 
 from __future__ import annotations
@@ -327,18 +331,71 @@ class PointsGrid:
                 "azimuth_resolution": azimuth_resolution, "attrs": {"grid_kind": "points"}}
 
 
-Grid = SlantGrid | PlaneGrid | PointsGrid
+@dataclass(frozen=True)
+class VolumeGrid:
+    """Voxels of the scene frame: ``(x_i, y_j, z_k)`` for three axes.
+
+    The image dims are ``("z", "y", "x")``: x varies fastest, so the volume's slice at ``z_k``
+    is, pixel for pixel, the image of the :class:`PlaneGrid` ``origin = (0, 0, z_k)``,
+    ``axis_u = x``, ``axis_v = y``, ``u = x``, ``v = y`` (dims ``(v, u)``), and a stack of
+    horizontal planes is a volume. The voxels do not depend on the raw product: several passes
+    (and channels) are back-projected onto the same voxels (:mod:`mitsar.focus.passes`).
+
+    Parameters
+    ----------
+    x, y, z : array_like
+        ``[start, stop, step]`` (stop included when on the step) or increasing coordinates [m].
+    """
+
+    x: Any
+    y: Any
+    z: Any
+
+    def axes(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """The x, y and z coordinates [m], the volume refused before it is built if its voxels
+        would not fit in memory (:func:`require_pixels`)."""
+        x, y, z = (axis_values(spec, name) for spec, name in ((self.x, "x"), (self.y, "y"),
+                                                              (self.z, "z")))
+        require_pixels("VolumeGrid", "x x y x z", float(len(x)) * len(y) * len(z))
+        return x, y, z
+
+    def resolve(self, raw: xr.Dataset, radar: Radar, azimuth_resolution: float) -> dict:
+        x, y, z = self.axes()
+        pixel = np.empty((len(z), len(y), len(x), 3))
+        pixel[..., 0] = x[None, None, :]
+        pixel[..., 1] = y[None, :, None]
+        pixel[..., 2] = z[:, None, None]
+        # Range and azimuth directions at the volume's centre, seen from mid-aperture, as
+        # 3-D unit vectors in the image's (z, y, x) component order.
+        centre = np.array([x.mean(), y.mean(), z.mean()])
+        mid = len(raw["sweep"]) // 2
+        line_of_sight = _unit(centre - raw["platform_position"].values[mid])
+        velocity = _unit(raw["platform_velocity"].values[mid])
+        return {"dims": ("z", "y", "x"), "coords": {"z": z, "y": y, "x": x},
+                "position": pixel, "range_axis": tuple(line_of_sight[::-1]),
+                "azimuth_axis": tuple(velocity[::-1]),
+                "range_resolution": radar.range_resolution,
+                "azimuth_resolution": azimuth_resolution,
+                "attrs": {"grid_kind": "volume"}}
+
+
+Grid = SlantGrid | PlaneGrid | PointsGrid | VolumeGrid
 
 
 def from_dict(spec: dict) -> Grid:
-    """Make a grid from a dict (a TOML table) with a ``kind`` key.
+    """Make a grid from a dict (a TOML table) with a ``kind`` (or ``type``) key.
 
     ``{kind = "slant", along_track = [start, stop, step], slant_range = [...]}``,
-    ``{kind = "plane", origin, axis_u, axis_v, u, v}``, ``{kind = "points", points}``.
+    ``{kind = "plane", origin, axis_u, axis_v, u, v}``, ``{kind = "points", points}``,
+    ``{kind = "volume", x = [start, stop, step], y = [...], z = [...]}``.
     """
-    kinds = {"slant": SlantGrid, "plane": PlaneGrid, "points": PointsGrid}
+    kinds = {"slant": SlantGrid, "plane": PlaneGrid, "points": PointsGrid,
+             "volume": VolumeGrid}
     spec = dict(spec)
-    kind = spec.pop("kind", "slant")
+    if "kind" in spec and "type" in spec:
+        raise ParameterError("grid", "type", "one of 'kind' and 'type' (the same key)",
+                             (spec["kind"], spec["type"]))
+    kind = spec.pop("kind", spec.pop("type", "slant"))
     if kind not in kinds:
         raise ParameterError("grid", "kind", f"one of {sorted(kinds)}", kind)
     allowed = set(kinds[kind].__dataclass_fields__)

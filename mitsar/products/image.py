@@ -17,6 +17,12 @@ attributes
     antenna state), provenance (``raw_seed``, ``raw_config``, ``mitsar_version``) and, carried
     from the raw product, what the run asks of the metrics and figures
     (:data:`mitsar.products.requests.CARRIED_ATTRS`).
+
+A volume (``grid_kind = "volume"``, :class:`mitsar.focus.grid.VolumeGrid`) has three grid dims,
+``(z, y, x)`` (:data:`VOLUME_SCHEMA`); its ``range_axis`` and ``azimuth_axis`` are 3-D unit
+vectors in (z, y, x) order. Several passes combined (:mod:`mitsar.focus.passes`) add
+``pass_position`` (pass, xyz) [m], ``pass_baseline`` (pass) [m] and the pass and elevation
+attributes.
 """
 
 from __future__ import annotations
@@ -32,7 +38,7 @@ from mitsar.products.requests import CARRIED_ATTRS, REQUEST_ATTRS
 from mitsar.products.schema import Schema, Variable, validate
 from mitsar.version import __version__
 
-__all__ = ["IMAGE_SCHEMA", "carry_requests", "image_dims", "make_image_product",
+__all__ = ["IMAGE_SCHEMA", "VOLUME_SCHEMA", "carry_requests", "image_dims", "make_image_product",
            "validate_image", "vector_attr"]
 
 IMAGE_SCHEMA = Schema(
@@ -54,6 +60,22 @@ IMAGE_SCHEMA = Schema(
 """The image product's layout (module docstring); ``row`` and ``col`` stand for the grid's own
 two dims."""
 
+VOLUME_SCHEMA = Schema(
+    product="image",
+    variables={
+        "image": Variable(("z", "y", "x"), "", "focused complex image"),
+        "position": Variable(("z", "y", "x", "xyz"), "m", "world position of the voxel"),
+        "coverage": Variable(("z", "y", "x"), "1",
+                             "fraction of the full processed aperture that contributed"),
+        "xyz": Variable(("xyz",)),
+        "z": Variable(("z",), "m"), "y": Variable(("y",), "m"), "x": Variable(("x",), "m"),
+    },
+    attrs=IMAGE_SCHEMA.attrs,
+    optional_attrs=IMAGE_SCHEMA.optional_attrs,
+)
+"""A volume image product's layout (:class:`mitsar.focus.grid.VolumeGrid`; module
+docstring)."""
+
 
 def image_dims(image: xr.Dataset, where: str = "image product") -> tuple[str, str]:
     """The (row, col) dims of an image product's ``image`` variable."""
@@ -66,8 +88,12 @@ def image_dims(image: xr.Dataset, where: str = "image product") -> tuple[str, st
 
 def validate_image(product: xr.Dataset, where: str = "image product") -> xr.Dataset:
     """Check an image product against :data:`IMAGE_SCHEMA`, its grid dims standing for
-    ``row`` and ``col`` (:func:`mitsar.products.schema.validate`)."""
+    ``row`` and ``col``, or a volume (``grid_kind = "volume"``) against :data:`VOLUME_SCHEMA`
+    (:func:`mitsar.products.schema.validate`)."""
     checked = product
+    if product.attrs.get("product") == "image" and product.attrs.get("grid_kind") == "volume":
+        validate(product, VOLUME_SCHEMA, where)
+        return product
     if product.attrs.get("product") == "image":
         rows, cols = image_dims(product, where)
         if (rows, cols) != ("row", "col"):
