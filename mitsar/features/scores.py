@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 import xarray as xr
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
 from mitsar.errors import ParameterError
@@ -132,7 +132,7 @@ def _radius(found: Any, radius: float | None, tau: float) -> tuple[float, str]:
 
 def map_scores(found: Any, scene_or_truth: Any, tau: float = 0.05, *,
                radius: float | None = None, kinds: Sequence[str] = SCORED_KINDS,
-               track: Any = None, bounds: ArrayLike | None = None,
+               track: Any = None, bounds: Any = None,
                spacing: float | None = None, seed: int = 0,
                map_points: str = "auto", feature_points: Any = None) -> dict[str, Any]:
     """Score a map of detections against the scene it was made of.
@@ -159,9 +159,9 @@ def map_scores(found: Any, scene_or_truth: Any, tau: float = 0.05, *,
     track : raw product(s) or Observer, optional
         The flight, for what is observable (:func:`mitsar.features.truth.scene_truth`);
         without it everything in ``bounds`` counts as observable.
-    bounds : array_like, shape (2, 3), optional
-        Box [m] of the map (e.g. the focused volume): truth outside it is not scored, nor are
-        detections more than ``tau`` outside it.
+    bounds : array_like of shape (2, 3), VolumeGrid or image product, optional
+        Box [m] of the map, or the grid / volume image whose extent it is: truth outside it is
+        not scored, nor are map points more than ``tau`` outside it.
     spacing : float, optional
         Truth sample spacing [m]; default ``tau``.
     seed : int

@@ -703,9 +703,19 @@ class SceneTruth:
         return data
 
 
-def _check_bounds(bounds: ArrayLike | None) -> NDArray | None:
+def _check_bounds(bounds: Any) -> NDArray | None:
+    """A (2, 3) box [m] from an array, a grid with ``axes()`` (``VolumeGrid``: its voxel
+    centres' extent) or an image product (its ``position`` extent)."""
     if bounds is None:
         return None
+    if hasattr(bounds, "axes") and callable(bounds.axes):
+        axes = bounds.axes()
+        bounds = [[float(np.min(a)) for a in axes], [float(np.max(a)) for a in axes]]
+    elif isinstance(bounds, xr.Dataset) and "position" in bounds.variables:
+        position = bounds["position"]
+        flat = position.transpose(*[d for d in position.dims if d != "xyz"], "xyz").values
+        flat = flat.reshape(-1, 3)
+        bounds = [np.nanmin(flat, axis=0), np.nanmax(flat, axis=0)]
     box = np.asarray(bounds, dtype=float)
     if box.shape != (2, 3) or not np.all(np.isfinite(box)) or not np.all(box[1] > box[0]):
         raise ParameterError("scene_truth", "bounds", "[[x0, y0, z0], [x1, y1, z1]] with "
@@ -731,7 +741,7 @@ def _clip_segments(start: NDArray, end: NDArray, box: NDArray, tolerance: float
 
 
 def scene_truth(scene: Any, spacing: float = 0.05, *, track: Any = None,
-                bounds: ArrayLike | None = None, seed: int = 0, samples: int | None = None,
+                bounds: Any = None, seed: int = 0, samples: int | None = None,
                 cover: float = 1.0, tolerance: float = 1e-3, angle_tolerance_deg: float = 5.0,
                 min_fold_deg: float = 20.0, feature_offset: float = 0.01) -> SceneTruth:
     """The ground truth of a map of ``scene``, and what a flight over it observes.
@@ -745,8 +755,9 @@ def scene_truth(scene: Any, spacing: float = 0.05, *, track: Any = None,
     track : raw product, sequence of raw products, or Observer, optional
         The flight (one raw product per pass, :func:`observer_from_track`); without it every
         sample and feature counts as observable.
-    bounds : array_like, shape (2, 3), optional
-        Keep the truth inside this box [m] (e.g. the focused volume).
+    bounds : array_like of shape (2, 3), VolumeGrid or image product, optional
+        Keep the truth inside this box [m]: ``[[x0, y0, z0], [x1, y1, z1]]``, or the extent of
+        a grid's voxel centres or of an image's ``position`` (the focused volume).
     seed : int
         Seed of :func:`mitsar.scene.surfaces.sample_surface_points` (recorded).
     samples, cover
