@@ -10,6 +10,7 @@ since mid-sweep is the centre of the symmetric fast-time interval).
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Iterator, Sequence
 from typing import Any
 
@@ -23,7 +24,7 @@ from mitsar.backend import array_namespace, namespace_of
 from mitsar.budget import require_memory
 from mitsar.checks import integer
 from mitsar.checks import seed as check_seed
-from mitsar.errors import ParameterError
+from mitsar.errors import MitsarWarning, ParameterError
 from mitsar.model.geometry.antenna import two_way_pattern
 from mitsar.model.geometry.attitude import Look, antenna_frame, body_offset_to_world
 from mitsar.model.geometry.navigation import (
@@ -35,6 +36,7 @@ from mitsar.model.geometry.sweeps import SweepGeometry
 from mitsar.model.geometry.trajectory import Trajectory
 from mitsar.model.noise import check_noise, thermal_noise
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
+from mitsar.model.reception import reception, reception_warnings
 from mitsar.model.signal import (
     apparent_beat_frequency,
     bistatic_delay,
@@ -366,6 +368,7 @@ def _plan(radar: Radar, trajectory: Trajectory, look: Look, targets: Sequence[Po
                            background_cell_rcs_db=background.cell_rcs_db)
 
     _check_beat_frequencies(radar, geometry, positions, velocities, len(targets))
+    unreceived = _reception_warnings(radar, look, geometry, targets, pattern)
 
     def reflectivity(n: int) -> NDArray[np.complex128]:
         parts = [np.broadcast_to(target_reflectivity, (n, len(targets))).astype(complex)]
@@ -395,6 +398,8 @@ def _plan(radar: Radar, trajectory: Trajectory, look: Look, targets: Sequence[Po
              "trajectory_straight": int((trajectory if recorded is None
                                          else recorded).is_straight), "config": config,
              **extra_attrs}
+    if unreceived:  # docs/reliability.md: echoes that cannot be received, said and recorded
+        attrs["reception_warnings"] = "\n".join(unreceived)
     if targets:  # mitsar.products.requests: the targets, for the figures' marks
         attrs["target_positions"] = tuple(float(v) for t in targets for v in t.position)
     if noise:  # docs/metrics.md §Noise
@@ -456,6 +461,27 @@ def _check_beat_frequencies(radar: Radar, geometry: SweepGeometry, positions: ND
                 f"{radar.sampling_frequency / 2:g} Hz, i.e. slant range <= "
                 f"{radar.max_range:g} m (max_range)",
                 f"{beat[worst]:.4g} Hz at {slant_range[worst]:.3f} m (sweep {sweep})")
+
+
+def _reception_warnings(radar: Radar, look: Look, geometry: SweepGeometry,
+                        targets: list[PointTarget], pattern: bool) -> list[str]:
+    """Warn (:class:`MitsarWarning`), before any compute, about each target whose echo a real
+    radar could not receive as modelled: outside the main lobe for the whole flight, beyond
+    ``max_range`` or in the antenna's near field (:mod:`mitsar.model.reception`); returns the
+    sentences, which the raw product records (``reception_warnings``)."""
+    if not targets:
+        return []
+    positions = np.array([t.position for t in targets], dtype=float)
+    seen = reception(radar, positions, geometry.position,
+                     antenna_frame(look, *geometry.attitude.T),
+                     np.array([t.velocity for t in targets], dtype=float),
+                     geometry.slow_time + radar.sweep_duration / 2)
+    names = [f"targets[{i}] at [{', '.join(f'{v:g}' for v in p)}] m"
+             for i, p in enumerate(positions)]
+    messages = reception_warnings(radar, seen, names, pattern=pattern)
+    for message in messages:
+        warnings.warn(f"simulate_point_targets: {message}", MitsarWarning, stacklevel=4)
+    return messages
 
 
 def _echo_amplitudes(radar: Radar, look: Look, geometry: SweepGeometry, positions: NDArray,

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
+import warnings
 from collections.abc import Iterator
 from typing import Any
 
@@ -20,7 +21,7 @@ from numpy.typing import NDArray
 from tqdm.auto import tqdm
 
 from mitsar.budget import require_memory
-from mitsar.errors import ParameterError
+from mitsar.errors import MitsarWarning, ParameterError
 from mitsar.model import histogram as hg
 from mitsar.model.geometry.attitude import Look, antenna_frame, body_offset_to_world
 from mitsar.model.geometry.navigation import (
@@ -31,6 +32,7 @@ from mitsar.model.geometry.navigation import (
 from mitsar.model.geometry.sweeps import SweepGeometry
 from mitsar.model.geometry.trajectory import Trajectory
 from mitsar.model.radar import Radar
+from mitsar.model.reception import scene_reception_warnings
 from mitsar.model.scatterers import ScattererSet, empty_scatterers, range_limits
 from mitsar.model.signal import sweep_count
 from mitsar.model.trace_options import TraceOptions
@@ -160,6 +162,7 @@ class TraceRun:
         if self.motion.moving:
             self.scatterers = _moving_scatterers(self.scatterers, surface_velocities(
                 self.scene, self.motion.motion))
+        self.reception_warnings = self._reception(where) if self.backscatter else []
         facets = self._facets(where, self.config.physical_optics)
         if facets is not None and self.channel is not None:
             raise ParameterError(where, "physical_optics", "false with a multi-channel radar "
@@ -242,6 +245,19 @@ class TraceRun:
             else self.geometry.position + body_offset_to_world(receivers[c], *attitude)
             for c in channels))
         return channels, dataclasses.replace(self.geometry, position=transmitter)
+
+    def _reception(self, where: str) -> list[str]:
+        """Warn (:class:`MitsarWarning`), before tracing, about the scene's point targets and
+        the part of its surface in the beam that cannot be received as modelled: beyond
+        ``max_range`` or in the near field (:func:`scene_reception_warnings`); the traced
+        product records the sentences (``reception_warnings``)."""
+        messages = scene_reception_warnings(self.radar, self.scatterers.position,
+                                            self.scatterers.point_target_count,
+                                            self.trace_geometry.position[self.sweeps],
+                                            self.frames[self.sweeps])
+        for message in messages:
+            warnings.warn(f"{where}: {message}", MitsarWarning, stacklevel=4)
+        return messages
 
     def _facets(self, where: str, physical_optics: Any) -> FacetSet | None:
         """The facets that use physical optics, or None; their shapes stop multipath rays."""
@@ -327,6 +343,8 @@ class TraceRun:
                     "physical_optics_subfacets": len(self.facet_echoes),
                     "physical_optics_chains": self.facet_echoes.chain_counts}),
                 "motion": self.motion.describe(),
+                **({"reception_warnings": "\n".join(self.reception_warnings)}
+                   if self.reception_warnings else {}),
                 "receiver_offset": [float(v) for v in self.setup.receiver_offset],
                 "rays_per_sweep": 0 if self.setup.rays is None else len(self.setup.rays),
                 "trajectory_kind": (self.recorded or self.trajectory).kind,
