@@ -14,8 +14,10 @@ Gaussian noise or clutter of one local mean power; docs/features.md §2):
 * OS-CFAR: ``Z`` = the k-th smallest training power, ``Pfa = k C(N,k) Gamma(alpha+N-k+1)
   Gamma(k) / Gamma(alpha+N+1)`` (Rohling 1983, docs/features.md eq. 3), solved for ``alpha``.
 
-Cells whose window does not fit inside the image are not tested (``tested`` False). Everything
-is vectorised: box sums by separable running filters (CA), a sliding rank with a footprint
+Near the image's edges a window holds fewer training cells: by default each cell is tested with
+those inside the image, its own N (and for OS its own rank) in eqs. 2-3, so every cell keeps the
+requested ``pfa``; ``edges="inside"`` tests only cells whose whole window fits. Everything is
+vectorised: box sums by separable running filters (CA), a sliding rank with a footprint
 (``scipy.ndimage.rank_filter``, OS).
 """
 
@@ -35,10 +37,11 @@ from mitsar.errors import ParameterError
 
 __all__ = ["DEFAULT_GUARD", "DEFAULT_TRAINING", "METHODS", "Window", "ca_threshold_factor",
            "cfar", "default_window", "detection_probability", "make_window", "os_false_alarm",
-           "os_noise_scale", "os_threshold_factor"]
+           "os_noise_scale", "os_threshold_factor", "os_threshold_factors"]
 
 WHERE = "mitsar.detect"
 METHODS = ("ca", "os")
+EDGES = ("truncate", "inside")
 DEFAULT_GUARD = 2
 """Guard cells on each side of the CUT, every dimension, when the image's resolution is not
 known; otherwise the default guard is one resolution cell, ``ceil(rho_d / step_d)`` cells
@@ -126,7 +129,7 @@ def _check_pfa(pfa: Any) -> float:
     return value
 
 
-def ca_threshold_factor(pfa: float, cells: int) -> float:
+def ca_threshold_factor(pfa: float, cells: ArrayLike) -> NDArray[np.float64] | float:
     """CA-CFAR threshold factor per *mean* training power, docs/features.md eq. 2.
 
     ``alpha = N (pfa^(-1/N) - 1)`` from ``Pfa = (1 + alpha/N)^-N`` (Finn & Johnson 1968;
@@ -136,18 +139,20 @@ def ca_threshold_factor(pfa: float, cells: int) -> float:
     ----------
     pfa : float
         Requested false-alarm probability per cell, in (0, 1).
-    cells : int
-        Number N of training cells.
+    cells : int or array_like of int
+        Number N of training cells (per cell, where edges truncate the window).
 
     Returns
     -------
-    float
+    float or ndarray
         ``alpha`` [1]: detect when ``P_CUT > alpha * mean(training powers)``.
     """
-    return float(cells * np.expm1(-math.log(pfa) / cells))
+    cells = np.asarray(cells, dtype=float)
+    alpha = cells * np.expm1(-math.log(pfa) / cells)
+    return float(alpha) if alpha.ndim == 0 else alpha
 
 
-def os_false_alarm(alpha: ArrayLike, cells: int, rank: int) -> NDArray[np.float64]:
+def os_false_alarm(alpha: ArrayLike, cells: ArrayLike, rank: ArrayLike) -> NDArray[np.float64]:
     """OS-CFAR false-alarm probability, docs/features.md eq. 3 (Rohling 1983).
 
     ``Pfa = k C(N,k) Gamma(alpha+N-k+1) Gamma(k) / Gamma(alpha+N+1)`` for the threshold
@@ -158,12 +163,12 @@ def os_false_alarm(alpha: ArrayLike, cells: int, rank: int) -> NDArray[np.float6
     ----------
     alpha : array_like
         Threshold factor(s) per k-th training power, >= 0.
-    cells, rank : int
-        N training cells and the rank k (1 <= k <= N).
+    cells, rank : int or array_like of int
+        N training cells and the rank k (1 <= k <= N), broadcast against ``alpha``.
     """
     alpha = np.asarray(alpha, dtype=float)
-    n, k = cells, rank
-    log = (math.log(k) + special.gammaln(n + 1) - special.gammaln(k + 1)
+    n, k = np.asarray(cells, dtype=float), np.asarray(rank, dtype=float)
+    log = (np.log(k) + special.gammaln(n + 1) - special.gammaln(k + 1)
            - special.gammaln(n - k + 1) + special.gammaln(alpha + n - k + 1)
            + special.gammaln(k) - special.gammaln(alpha + n + 1))
     return np.exp(log)
@@ -184,10 +189,29 @@ def os_threshold_factor(pfa: float, cells: int, rank: int) -> float:
     return float(optimize.brentq(gap, 0.0, high, xtol=1e-12, rtol=1e-12))
 
 
-def os_noise_scale(cells: int, rank: int) -> float:
+def os_threshold_factors(pfa: float, cells: ArrayLike, rank: ArrayLike) -> NDArray[np.float64]:
+    """:func:`os_threshold_factor` for arrays of (N, k) at once (bisection on ``log Pfa``, which
+    falls monotonically in ``alpha``): the factors of cells whose window the image edge
+    truncates."""
+    cells, rank = np.broadcast_arrays(np.asarray(cells, float), np.asarray(rank, float))
+    target = math.log(pfa)
+    low, high = np.zeros(cells.shape), np.ones(cells.shape)
+    while np.any(above := np.log(os_false_alarm(high, cells, rank)) > target):
+        high = np.where(above, 2.0 * high, high)
+    for _ in range(64):
+        middle = 0.5 * (low + high)
+        above = np.log(os_false_alarm(middle, cells, rank)) > target
+        low, high = np.where(above, middle, low), np.where(above, high, middle)
+    return 0.5 * (low + high)
+
+
+def os_noise_scale(cells: ArrayLike, rank: ArrayLike) -> NDArray[np.float64] | float:
     """Mean of the k-th smallest of N unit-mean exponentials, ``H_N - H_(N-k)`` (harmonic
-    numbers; docs/features.md eq. 4): ``X_(k)`` over this is OS-CFAR's mean-power estimate."""
-    return float(np.sum(1.0 / np.arange(cells - rank + 1, cells + 1)))
+    numbers, as ``psi(N+1) - psi(N-k+1)``; docs/features.md eq. 4): ``X_(k)`` over this is
+    OS-CFAR's mean-power estimate."""
+    cells, rank = np.asarray(cells, float), np.asarray(rank, float)
+    scale = special.digamma(cells + 1.0) - special.digamma(cells - rank + 1.0)
+    return float(scale) if scale.ndim == 0 else scale
 
 
 def _default_rank(cells: int) -> int:
@@ -248,6 +272,46 @@ def detection_probability(snr: ArrayLike, pfa: float, method: str = "ideal", cel
     return np.array([integrate.quad(
         lambda z, s=s: density(z) * stats.ncx2.sf(2.0 * alpha * z, 2, 2.0 * s),
         0.0, np.inf, limit=200)[0] for s in snr])
+
+
+def _ring_sum(values: NDArray[np.float64], window: Window) -> NDArray[np.float64]:
+    """Sum of ``values`` over each cell's training cells, zero outside the array: the window's
+    box sum less the guard box's (separable running sums, ``scipy.ndimage.uniform_filter``)."""
+    outer = tuple(2 * h + 1 for h in window.half)
+    core = tuple(2 * g + 1 for g in window.guard)
+    return (ndimage.uniform_filter(values, outer, mode="constant") * math.prod(outer)
+            - ndimage.uniform_filter(values, core, mode="constant") * math.prod(core))
+
+
+GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
+
+
+def _ordered_statistic(power: NDArray[np.float64], window: Window, rank: int) -> tuple[
+        NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """k-th smallest training power of every cell, with the image's edges truncating windows.
+
+    The image is padded by the window's half-width; a fraction ``k/N`` of the padding cells
+    (a low-discrepancy pattern) holds ``-inf`` and the rest ``+inf``. A cell with ``n`` training
+    cells inside the image and ``m`` ``-inf`` ones in its window gets from one
+    ``rank_filter(k)`` the ``(k - m)``-th smallest of its ``n`` real training powers, about
+    ``k n / N``: OS-CFAR with its own (n, k - m) (docs/features.md §3).
+
+    Returns
+    -------
+    tuple of ndarray
+        The order statistic (``±inf`` where k - m is outside 1..n), n and k - m per cell.
+    """
+    pad = [(h, h) for h in window.half]
+    outside = np.pad(np.zeros(power.shape, dtype=bool), pad, constant_values=True)
+    low = outside & ((np.arange(outside.size).reshape(outside.shape) * GOLDEN) % 1.0
+                     < rank / window.cells)
+    padded = np.where(low, -np.inf, np.where(outside, np.inf, np.pad(power, pad)))
+    inner = tuple(slice(h, h + size) for h, size in zip(window.half, power.shape, strict=True))
+    ordered = ndimage.rank_filter(padded, rank - 1, footprint=window.footprint,
+                                  mode="nearest")[inner]
+    below = np.rint(_ring_sum(low.astype(float), window))[inner]
+    counts = np.rint(_ring_sum(np.ones(power.shape), window))
+    return ordered, counts, rank - below
 
 
 def _spatial_dims(image: xr.Dataset) -> tuple[str, ...]:
@@ -341,8 +405,8 @@ def _as_dataset(image: Any) -> xr.Dataset:
 
 
 def cfar(image: Any, pfa: float = 1e-6, method: str = "ca", guard: Any = None,
-         training: Any = None, rank: int | None = None,
-         resolution: Any = None) -> xr.Dataset:
+         training: Any = None, rank: int | None = None, resolution: Any = None,
+         edges: str = "truncate") -> xr.Dataset:
     """CFAR test of every cell of a 2-D or 3-D image (module docstring).
 
     Parameters
@@ -366,14 +430,19 @@ def cfar(image: Any, pfa: float = 1e-6, method: str = "ca", guard: Any = None,
     resolution : float or sequence of float, optional
         Resolution cell along each image dim [m], for the position uncertainty; default from the
         image (:func:`_resolution`).
+    edges : {"truncate", "inside"}
+        Near the image's edges: test with the training cells inside the image (N and, for OS,
+        k per cell, thresholds from eqs. 2-3 for them; docs/features.md §2), or test only cells
+        whose whole window fits.
 
     Returns
     -------
     xarray.Dataset
         On the image's dims: ``power`` (``|x|^2``), ``noise`` (mean noise power estimated from
         the training cells; NaN where untested), ``threshold``, ``detected`` and ``tested``
-        (bool), ``position`` (dims + xyz) [m]; attributes: the parameters, ``cells`` (N),
-        ``alpha``, ``resolution`` and ``axes`` (world unit vector of each dim).
+        (bool), ``training_cells`` (N of each cell), ``position`` (dims + xyz) [m]; attributes:
+        the parameters, ``cells`` and ``alpha`` (N and the factor of a whole window),
+        ``resolution`` and ``axes`` (world unit vector of each dim).
 
     Raises
     ------
@@ -385,6 +454,8 @@ def cfar(image: Any, pfa: float = 1e-6, method: str = "ca", guard: Any = None,
     if method not in METHODS:
         raise ParameterError(WHERE, "method", "'ca' (cell-averaging) or 'os' (ordered-statistic)",
                              method)
+    if edges not in EDGES:
+        raise ParameterError(WHERE, "edges", "'truncate' or 'inside'", edges)
     data = _as_dataset(image)
     dims = _spatial_dims(data)
     values = np.asarray(data["image"].transpose(*dims).values)
@@ -399,29 +470,28 @@ def cfar(image: Any, pfa: float = 1e-6, method: str = "ca", guard: Any = None,
                              f"{tuple(2 * h + 1 for h in window.half)} cells) no larger than "
                              "the image", f"image shape {power.shape}")
     n = window.cells
-    inner = tuple(slice(h, s - h) for h, s in zip(window.half, power.shape, strict=True))
-    tested = np.zeros(power.shape, dtype=bool)
-    tested[inner] = True
     if method == "ca":
-        # Box sums of the whole window less the guard box (separable running sums).
-        outer = tuple(2 * h + 1 for h in window.half)
-        guard_box = tuple(2 * g + 1 for g in window.guard)
-        total = ndimage.uniform_filter(power, outer, mode="constant") * math.prod(outer)
-        core = ndimage.uniform_filter(power, guard_box, mode="constant") * math.prod(guard_box)
-        noise = np.maximum(total - core, 0.0) / n
-        alpha = ca_threshold_factor(pfa, n)
-        threshold = alpha * noise
         rank_used = None
+        counts = np.rint(_ring_sum(np.ones(power.shape), window))
+        tested = counts >= (n if edges == "inside" else 1)
+        counts = np.where(tested, counts, n)
+        noise = np.maximum(_ring_sum(power, window), 0.0) / counts
+        threshold = ca_threshold_factor(pfa, counts) * noise
     else:
         rank_used = _default_rank(n) if rank is None else checks.integer(
             WHERE, "rank", rank, 1, f"an integer in [1, N = {n}]")
         if rank_used > n:
             raise ParameterError(WHERE, "rank", f"an integer in [1, N = {n}]", rank)
-        ordered = ndimage.rank_filter(power, rank_used - 1, footprint=window.footprint,
-                                      mode="constant")
-        alpha = os_threshold_factor(pfa, n, rank_used)
-        threshold = alpha * ordered
-        noise = ordered / os_noise_scale(n, rank_used)
+        ordered, counts, ranks = _ordered_statistic(power, window, rank_used)
+        tested = (ranks >= 1) & (ranks <= counts) & ((counts == n) | (edges == "truncate"))
+        counts, ranks = np.where(tested, counts, n), np.where(tested, ranks, rank_used)
+        pairs, inverse = np.unique(np.stack([counts.ravel(), ranks.ravel()]), axis=1,
+                                   return_inverse=True)
+        alphas = os_threshold_factors(pfa, pairs[0], pairs[1])[inverse.ravel()]
+        threshold = alphas.reshape(power.shape) * np.where(tested, ordered, 0.0)
+        noise = np.where(tested, ordered, 0.0) / os_noise_scale(counts, ranks)
+    alpha = (ca_threshold_factor(pfa, n) if method == "ca"
+             else os_threshold_factor(pfa, n, rank_used))
     noise = np.where(tested, noise, np.nan)
     threshold = np.where(tested, threshold, np.nan)
     detected = tested & (power > threshold)
@@ -433,13 +503,15 @@ def cfar(image: Any, pfa: float = 1e-6, method: str = "ca", guard: Any = None,
                                  "mean noise power estimated from the training cells"}),
          "threshold": (dims, threshold, {"units": "1", "long_name": "CFAR threshold on power"}),
          "detected": (dims, detected, {"long_name": "cell above the CFAR threshold"}),
-         "tested": (dims, tested, {"long_name": "cell whose CFAR window fits in the image"}),
+         "tested": (dims, tested, {"long_name": "cell tested (its training cells suffice)"}),
+         "training_cells": (dims, np.where(tested, counts, 0).astype(int), {
+             "units": "1", "long_name": "training cells inside the image"}),
          "position": (dims + ("xyz",), position, {"units": "m", "long_name":
                                                   "world position of the cell"})},
         coords={**coords, "xyz": ["x", "y", "z"]})
     out.attrs.update(
         product="cfar", method=method, pfa=pfa, guard=list(window.guard),
-        training=list(window.training), cells=n, alpha=alpha,
+        training=list(window.training), cells=n, alpha=alpha, edges=edges,
         rank=-1 if rank_used is None else rank_used, resolution=cell.tolist(),
         resolution_source=source, axes=axes.ravel().tolist(), dims=list(dims))
     return out

@@ -13,8 +13,8 @@ __all__ = ["detect"]
 
 
 def detect(image: Any, pfa: float = 1e-6, method: str = "ca", *, guard: Any = None,
-           training: Any = None, rank: int | None = None,
-           resolution: Any = None) -> xr.Dataset:
+           training: Any = None, rank: int | None = None, resolution: Any = None,
+           edges: str = "truncate") -> xr.Dataset:
     """Detect the point features of a 2-D or 3-D image: CFAR, then clusters.
 
     :func:`mitsar.features.cfar.cfar` tests every cell against a threshold set for the
@@ -39,6 +39,9 @@ def detect(image: Any, pfa: float = 1e-6, method: str = "ca", *, guard: Any = No
         OS-CFAR's k; default ``round(3N/4)``.
     resolution : float or sequence of float, optional
         Resolution cell along each image dim [m]; default from the image's attributes.
+    edges : {"truncate", "inside"}
+        Test the cells near the image's edges with the training cells inside it (default), or
+        only cells whose whole window fits.
 
     Returns
     -------
@@ -60,4 +63,4 @@ def detect(image: Any, pfa: float = 1e-6, method: str = "ca", *, guard: Any = No
     >>> found = mitsar.detect(image, pfa=1e-6, method="ca")       # doctest: +SKIP
     >>> found["position"].sel(detection=0).values                  # doctest: +SKIP
     """
-    return point_features(cfar(image, pfa, method, guard, training, rank, resolution))
+    return point_features(cfar(image, pfa, method, guard, training, rank, resolution, edges))
