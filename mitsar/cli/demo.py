@@ -36,12 +36,13 @@ DEMO_FILES = {
 
 
 def demo_examples() -> list[str]:
-    """Bundled experiments the demo can run: point targets to measure (not ambiguity files)."""
+    """Bundled experiments the demo can run: point targets to measure in one acquisition (not
+    ambiguity files, not ``[[passes]]``: ``mitsar run`` runs those)."""
     names = []
     for path in sorted(examples_dir().glob("*.toml")):
         document = read_toml(path)
         measurable = document.get("targets") or (document.get("metrics") or {}).get("target")
-        if measurable and "trajectories" not in document:
+        if measurable and "trajectories" not in document and "passes" not in document:
             names.append(path.stem)
     return names
 

@@ -14,7 +14,7 @@ from mitsar.errors import MitsarError
 from mitsar.experiment.loading import load_experiment, load_grid
 from mitsar.experiment.options import FocusOptions
 from mitsar.experiment.parsers import MAX_SEED
-from mitsar.experiment.runs import run_focus, run_metrics, simulate_to
+from mitsar.experiment.runs import pass_path, run_focus, run_metrics, simulate_to
 from mitsar.export import write_cphd, write_sicd
 from mitsar.focus.compression import range_compress
 from mitsar.io import check_writable, load, save, to_jsonable, write_json
@@ -29,8 +29,9 @@ __all__ = ["cmd_export", "cmd_focus", "cmd_metrics", "cmd_plot", "cmd_range", "c
 
 def cmd_simulate(args: argparse.Namespace) -> int:
     """``mitsar simulate``: experiment file -> raw product."""
-    check_writable(args.output, args.overwrite)
     experiment = load_experiment(args.experiment, args.set)
+    if not experiment.passes:  # with [[passes]]: one file per pass, checked by simulate_to
+        check_writable(args.output, args.overwrite)
     if args.seed is not None:
         if not 0 <= args.seed <= MAX_SEED:
             raise MitsarError(f"--seed: expected an integer in [0, {MAX_SEED}] (products "
@@ -41,7 +42,11 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     log(args, f"simulating {args.experiment} ...")
     sweeps = simulate_to(experiment, args.output, overwrite=args.overwrite,
                          progress=not args.quiet)
-    log(args, f"wrote {args.output}: raw product, {sweeps} sweeps x "
+    written = (", ".join(str(pass_path(args.output, i)) for i in range(len(experiment.passes)))
+               if experiment.passes else args.output)
+    kind = f"{len(experiment.passes)} raw products (one per pass)" if experiment.passes else (
+        "raw product")
+    log(args, f"wrote {written}: {kind}, {sweeps} sweeps x "
               f"{experiment.radar.samples_per_sweep} samples "
               f"({time.perf_counter() - start:.1f} s)")
     return 0

@@ -1,7 +1,8 @@
 """Reading experiment files: TOML in, a validated :class:`~.options.Experiment` out.
 
-An experiment file has the tables ``[radar]``, ``[trajectory]``, ``[look]``, ``[[targets]]``,
-``[background]`` (optional), ``[simulation]``, ``[focus]`` (with ``[focus.grid]``),
+An experiment file has the tables ``[radar]``, ``[trajectory]``, ``[look]``, ``[[passes]]``
+(optional: several acquisitions, each inheriting ``[trajectory]`` and ``[look]``),
+``[[targets]]``, ``[background]`` (optional), ``[simulation]``, ``[focus]`` (with ``[focus.grid]``),
 ``[metrics]`` and ``[interferometry]`` (optional, for a radar with several receivers), and
 the optional top-level keys ``name``, ``description`` and ``scene``. Every key,
 its type, unit and default is documented in ``docs/experiments.md``.
@@ -36,6 +37,7 @@ from mitsar.experiment.parsers import (
     parse_look,
     parse_metrics,
     parse_motion,
+    parse_pass,
     parse_radar,
     parse_scene,
     parse_simulation,
@@ -94,12 +96,26 @@ def experiment_from_dict(data: Mapping[str, Any], source: str | os.PathLike | No
         top.out["motion"] = motion_table.out
     radar = parse_radar(top.table("radar") or Table({}, "radar", where, top.base))
     top.out["radar"] = _radar_config(radar)
-    trajectory_table = top.table("trajectory", required=True)
-    trajectory, navigation = parse_flight(trajectory_table)
-    top.out["trajectory"] = trajectory_table.out
-    look_table = top.table("look", required=True)
-    look = parse_look(look_table)
-    top.out["look"] = look_table.out
+    # [[passes]] (docs/experiments.md §Passes): with passes, [trajectory] and [look] are what
+    # every pass inherits, and may be left out when each pass gives its own.
+    pass_tables = top.tables("passes")
+    trajectory_table = top.table("trajectory", required=not pass_tables)
+    trajectory = navigation = look = None
+    if trajectory_table is not None:
+        trajectory, navigation = parse_flight(trajectory_table)
+        top.out["trajectory"] = trajectory_table.out
+    look_table = top.table("look", required=not pass_tables)
+    if look_table is not None:
+        look = parse_look(look_table)
+        top.out["look"] = look_table.out
+    passes = tuple(parse_pass(table, index, None if trajectory_table is None
+                              else trajectory_table.data,
+                              None if look_table is None else look_table.data)
+                   for index, table in enumerate(pass_tables))
+    if passes:  # tools that fly one track fly pass 0
+        top.out["passes"] = [table.out for table in pass_tables]
+        trajectory, look, navigation = (passes[0].trajectory, passes[0].look,
+                                        passes[0].navigation)
     targets = []
     target_tables = top.tables("targets")
     for table in target_tables:
@@ -132,7 +148,7 @@ def experiment_from_dict(data: Mapping[str, Any], source: str | os.PathLike | No
                       motion=motion, interferometry=interferometry, name=name,
                       description=description,
                       source=Path(source).resolve() if source is not None else None,
-                      config=config)
+                      config=config, passes=passes)
 
 
 def _radar_config(radar: Radar) -> dict[str, Any]:

@@ -37,6 +37,9 @@ __all__ = [
     "FocusOptions",
     "InterferometryOptions",
     "MetricsOptions",
+    "PASS_SEED_RULE",
+    "Pass",
+    "pass_seed",
 ]
 
 ALGORITHMS = tuple(_FOCUS_ALGORITHMS)
@@ -128,6 +131,68 @@ class InterferometryOptions:
     min_coherence: float = 0.3
 
 
+PASS_SEED_RULE = "numpy.random.SeedSequence(seed, spawn_key=(pass index,)), first 64-bit word >> 1"
+"""How a pass's seeds follow from the experiment's (:func:`pass_seed`; recorded in products)."""
+
+
+def pass_seed(seed: int, index: int) -> int:
+    """The seed of pass ``index`` derived from an experiment seed (:data:`PASS_SEED_RULE`).
+
+    The rule of :func:`mitsar.experiment.campaign.task_seed` with the pass index as the spawn
+    key: independent streams for different passes, the same number for the same (seed, index).
+
+    Parameters
+    ----------
+    seed : int
+        The experiment's seed (``[simulation] seed``, or the inherited ``[trajectory.errors]
+        seed`` for navigation errors), >= 0.
+    index : int
+        The pass index (0, 1, ...).
+
+    Returns
+    -------
+    int
+        A seed in [0, 2**63).
+    """
+    state = np.random.SeedSequence(int(seed), spawn_key=(int(index),))
+    return int(state.generate_state(1, np.uint64)[0] >> np.uint64(1))
+
+
+@dataclass(frozen=True)
+class Pass:
+    """One acquisition of a multi-pass experiment (``[[passes]]``, docs/experiments.md).
+
+    Attributes
+    ----------
+    index : int
+        Position in ``[[passes]]`` (0, 1, ...): the raw product's ``pass`` attribute.
+    name : str
+        Free label (default ``"pass<index>"``).
+    trajectory : Trajectory
+        The pass's true track (its ``trajectory`` keys over the experiment's ``[trajectory]``,
+        then shifted by ``offset``).
+    look : Look
+        The pass's antenna look (its ``look`` keys over the experiment's ``[look]``).
+    navigation : NavigationErrors or None
+        The pass's navigation errors (``trajectory.errors`` keys over the experiment's
+        ``[trajectory.errors]``; the seed, unless the pass gives one, is
+        :func:`pass_seed` of the inherited seed and the index).
+    seed : int or None
+        The pass's receiver-noise seed when the file gives one; ``None``: :func:`pass_seed`
+        of the experiment's ``[simulation] seed`` (:meth:`Experiment.pass_seed`).
+    offset : tuple of 3 floats
+        Translation [m] applied to the inherited track.
+    """
+
+    index: int
+    name: str
+    trajectory: Trajectory
+    look: Look
+    navigation: NavigationErrors | None = None
+    seed: int | None = None
+    offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+
 @dataclass
 class Experiment:
     """A validated experiment (see :func:`load_experiment`).
@@ -163,6 +228,10 @@ class Experiment:
     config : dict
         The effective configuration (defaults filled in, paths resolved); JSON-serialisable,
         and :func:`experiment_from_dict` of it gives the same experiment.
+    passes : tuple of Pass
+        ``[[passes]]``: several acquisitions of one scene (empty: one acquisition). With
+        passes, ``trajectory``, ``look`` and ``navigation`` above are pass 0's, so that a tool
+        that flies one track (preview, rays, Monte Carlo, sweeps) flies pass 0.
     """
 
     radar: Radar
@@ -181,6 +250,14 @@ class Experiment:
     description: str = ""
     source: Path | None = None
     config: dict[str, Any] = field(default_factory=dict)
+    passes: tuple[Pass, ...] = ()
+
+    def pass_seed(self, index: int) -> int:
+        """Receiver-noise seed of pass ``index``: the pass's ``seed`` when the file gives one,
+        else :func:`pass_seed` of ``[simulation] seed`` and the index (docs/experiments.md
+        §Passes)."""
+        given = self.passes[index].seed
+        return given if given is not None else pass_seed(self.simulation.seed or 0, index)
 
     def metrics_target(self) -> tuple[float, float, float] | None:
         """The target to measure: ``[metrics] target``, else the first point target."""

@@ -9,6 +9,7 @@ Keys, types, units and defaults are documented in ``docs/experiments.md``.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import math
 import os
@@ -27,6 +28,8 @@ from mitsar.experiment.options import (
     FocusOptions,
     InterferometryOptions,
     MetricsOptions,
+    Pass,
+    pass_seed,
 )
 from mitsar.experiment.table import Table, prefixed
 from mitsar.focus.aperture import MAX_AZIMUTH_RESOLUTION
@@ -42,6 +45,7 @@ from mitsar.scene.motion import parse_motion as parse_motion_mapping
 
 __all__ = [
     "check_grid",
+    "merge_trajectory",
     "parse_axis",
     "parse_background",
     "parse_focus",
@@ -50,6 +54,7 @@ __all__ = [
     "parse_look",
     "parse_metrics",
     "parse_navigation",
+    "parse_pass",
     "parse_radar",
     "parse_scene",
     "parse_simulation",
@@ -472,3 +477,115 @@ def parse_scene(t: Table) -> str | None:
         t.out["scene"] = str(candidate.resolve())
     return t.out["scene"]
 
+
+# --------------------------------------------------------------------------------------------
+# [[passes]]
+# --------------------------------------------------------------------------------------------
+
+_TRACK_KEYS = {"linear": ("start",), "waypoints": ("points",), "flight": ("points",),
+               "navigation": ("positions",)}
+"""The keys of each trajectory kind that a pass's ``offset`` shifts."""
+
+
+def merge_trajectory(base: dict[str, Any] | None,
+                     own: dict[str, Any] | None) -> dict[str, Any] | None:
+    """A pass's ``trajectory`` document: its keys over the experiment's ``[trajectory]``.
+
+    Every key the pass leaves out is inherited, except when the pass changes ``kind``: then
+    only ``errors`` is (the other keys belong to the experiment's kind). ``errors`` is merged
+    key by key the same way (``vibration`` as a whole). ``None`` when neither exists.
+    """
+    if base is None and own is None:
+        return None
+    base, own = copy.deepcopy(base or {}), copy.deepcopy(own or {})
+    base_kind, own_kind = base.get("kind", "linear"), own.get("kind", base.get("kind", "linear"))
+    merged = base if own_kind == base_kind else (
+        {"errors": base["errors"]} if isinstance(base.get("errors"), dict) else {})
+    own_errors = own.pop("errors", None)
+    merged.update(own)
+    if isinstance(own_errors, dict) and isinstance(merged.get("errors"), dict):
+        merged["errors"] = {**merged["errors"], **own_errors}
+    elif own_errors is not None:
+        merged["errors"] = own_errors
+    return merged
+
+
+def parse_pass(t: Table, index: int, trajectory: dict[str, Any] | None,
+               look: dict[str, Any] | None) -> Pass:
+    """One ``[[passes]]`` entry: its own track, look and navigation errors over the
+    experiment's (docs/experiments.md §Passes).
+
+    Parameters
+    ----------
+    t : Table
+        The entry (key path ``passes[<index>]``).
+    index : int
+        Its index.
+    trajectory, look : dict or None
+        The experiment's ``[trajectory]`` and ``[look]`` documents (already validated), which
+        the pass inherits key by key; ``None`` when the file has none.
+
+    Returns
+    -------
+    Pass
+        With ``t.out`` the pass's effective table: the merged ``trajectory`` (before
+        ``offset``; its ``errors.seed`` filled in) and ``look``.
+
+    Raises
+    ------
+    ParameterError
+        Naming ``passes[<index>].<key>``.
+    """
+    name = t.string("name", f"pass{index}")
+    seed = t.integer("seed", None, ge=0)
+    if seed is not None and seed > MAX_SEED:
+        raise t.error("seed", f"an integer in [0, {MAX_SEED}] (recorded as 64 bits)", seed)
+    offset = t.vector("offset", 3, (0.0, 0.0, 0.0), unit="m")
+    for key in ("errors", "navigation"):
+        if t.has(key):
+            raise t.error(key, "no such key: a pass's navigation errors are its "
+                          "[passes.trajectory.errors] table (the keys of [trajectory.errors])",
+                          t.data[key])
+    own_trajectory, own_look = t.table("trajectory"), t.table("look")
+    document = merge_trajectory(trajectory, None if own_trajectory is None
+                                else own_trajectory.data)
+    if document is None:
+        raise t.error("trajectory", "a table (required: the experiment has no [trajectory] to "
+                      "inherit)", "nothing")
+    errors = document.get("errors")
+    own_errors = None if own_trajectory is None else own_trajectory.data.get("errors")
+    if isinstance(errors, dict) and not (isinstance(own_errors, dict) and "seed" in own_errors):
+        inherited = errors.get("seed", 0)
+        if isinstance(inherited, int) and not isinstance(inherited, bool) and inherited >= 0:
+            errors["seed"] = pass_seed(inherited, index)
+    key = t.key("trajectory")
+    table = Table(copy.deepcopy(document), key, t.where, t.base)
+    flown, navigation = parse_flight(table)
+    t.out["trajectory"] = table.out
+    if any(offset):
+        flown = _shifted(t, table, offset)
+    if look is None and own_look is None:
+        raise t.error("look", "a table (required: the experiment has no [look] to inherit)",
+                      "nothing")
+    look_table = Table({**copy.deepcopy(look or {}),
+                        **copy.deepcopy(own_look.data if own_look is not None else {})},
+                       t.key("look"), t.where, t.base)
+    pass_look = parse_look(look_table)
+    t.out["look"] = look_table.out
+    t.finish()
+    return Pass(index=index, name=str(name), trajectory=flown, look=pass_look,
+                navigation=navigation, seed=seed, offset=tuple(offset))
+
+
+def _shifted(t: Table, parsed: Table, offset: tuple[float, ...]) -> Trajectory:
+    """The pass's (validated) track moved by ``offset`` [m]."""
+    document = copy.deepcopy(parsed.out)
+    kind = document.get("kind", "linear")
+    if "file" in document:
+        raise t.error("offset", "[0, 0, 0] with a navigation file (give the moved track in "
+                      "its own file)", list(offset))
+    shift = np.asarray(offset)
+    for name in _TRACK_KEYS[kind]:
+        document[name] = (np.asarray(document[name], dtype=float) + shift).tolist()
+    document.pop("errors", None)
+    return parse_trajectory(Table(document, parsed.path, t.where, t.base))

@@ -15,6 +15,12 @@
    with two or more receive channels also gets the **interferogram** of its BPA image
    (``[interferometry]``; :mod:`mitsar.experiment.interferometry`: ``interferometry/`` with
    the product, the point cloud and the maps);
+   an experiment with ``[[passes]]`` gets one raw product, image and metrics per pass
+   (``raw_pass<i>.nc``, ``image_<algorithm>_pass<i>.nc``, metrics ``"<algorithm> pass<i>"``;
+   :func:`pass_files`), all focused on the experiment's ``[focus.grid]``, with a table and a
+   figure of the passes (``record["passes"]``), and on a grid in the scene frame the image of
+   all passes combined coherently (``image_<algorithm>_passes.nc``, metrics
+   ``"<algorithm> passes"``; :func:`mitsar.experiment.runs.run_focus_passes`);
 3. the run record ``run.json`` (configuration, metrics, figures, timings, seeds, versions) and
    ``report.html`` (:func:`mitsar.report.html.build_report`) are written last.
 
@@ -25,11 +31,13 @@ Outputs are written atomically and never replace files unless ``overwrite``.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+import matplotlib.pyplot as plt
 import numpy as np
 
 from mitsar.ambiguity.run import run_ambiguity_experiment
@@ -46,12 +54,20 @@ from mitsar.experiment.loading import apply_overrides, experiment_from_dict, rea
 from mitsar.experiment.options import ALGORITHMS, Experiment
 from mitsar.experiment.paper import paper_table
 from mitsar.experiment.rays import run_rays
+from mitsar.experiment.runs import (
+    pass_experiment,
+    run_focus_passes,
+    run_metrics,
+    simulate_passes,
+)
 from mitsar.io import check_writable, write_json
 from mitsar.plots import navigation as plots_navigation
+from mitsar.plots.figures import plot_cuts, plot_image, target_marks
 from mitsar.plots.footprint import plot_footprint
 from mitsar.plots.preview import plot_preview
+from mitsar.products.requests import metrics_request
 from mitsar.report.html import RUN_RECORD, build_report, provenance
-from mitsar.report.pipeline import PipelineResult, RunFolder, run_pipeline
+from mitsar.report.pipeline import PipelineFiles, PipelineResult, RunFolder, run_pipeline
 from mitsar.report.preview import scene_or_stand_in
 from mitsar.scene import load_scene
 
@@ -141,9 +157,13 @@ def _ambiguity(run: RunFolder, path: Path, document: dict[str, Any], progress: b
 
 def _experiment(run: RunFolder, experiment: Experiment, algorithms: Sequence[str] | None,
                 realisations: int, progress: bool) -> None:
-    seeds = {"simulation": experiment.simulation.seed}
+    seeds: dict[str, Any] = {"simulation": experiment.simulation.seed}
     if experiment.navigation is not None:
         seeds["navigation"] = experiment.navigation.seed
+    if experiment.passes:
+        seeds["passes"] = [experiment.pass_seed(i) for i in range(len(experiment.passes))]
+        seeds["pass_navigation"] = [None if p.navigation is None else p.navigation.seed
+                                    for p in experiment.passes]
     run.record.update(kind="scene" if experiment.scene is not None else "point targets",
                       experiment=experiment.config, provenance=provenance(seeds))
     chosen = list(algorithms) if algorithms else [experiment.focus.algorithm]
@@ -152,6 +172,14 @@ def _experiment(run: RunFolder, experiment: Experiment, algorithms: Sequence[str
         raise ParameterError("run", "algorithms", f"names among {ALGORITHMS}", unknown)
     # The scene is loaded once, here, for every figure that draws it.
     scene = None if experiment.scene is None else load_scene(experiment.scene)
+    if experiment.passes:
+        _passes(run, experiment, chosen, scene, progress)
+        if experiment.radar.channel_count >= 2:
+            run.warn("interferometry: not formed in a multi-pass run (form it from one pass's "
+                     "image: mitsar interferogram image_bpa_pass0.nc)")
+        if realisations > 0:
+            run.warn("montecarlo: not run for a multi-pass experiment")
+        return
     # 1. simulate, 2. figures of the acquisition, 3. focus and measure with every algorithm
     result = run_pipeline(run, experiment, chosen, scene=scene, progress=progress,
                           after_simulation=lambda raw: _acquisition_figures(run, experiment,
@@ -174,6 +202,147 @@ def _experiment(run: RunFolder, experiment: Experiment, algorithms: Sequence[str
                 "file": file, "title": f"Realisations, {algorithm.upper()}",
                 "caption": "range and azimuth cuts of several realisations over the response "
                            "on an absorbing background (paper Figs. 8-9)"})
+
+
+def pass_files(index: int) -> PipelineFiles:
+    """File names of pass ``index`` in a ``mitsar run`` folder: ``raw_pass<i>.nc``,
+    ``image_<algorithm>_pass<i>.nc`` and their figures."""
+    return PipelineFiles(raw=f"raw_pass{index}.nc",
+                         range_figure=f"range_compressed_pass{index}.png",
+                         background_figure=f"background_pass{index}.png",
+                         image=f"image_{{algorithm}}_pass{index}.nc",
+                         image_figure=f"image_{{algorithm}}_pass{index}.png",
+                         cuts_figure=f"cuts_{{algorithm}}_pass{index}.png")
+
+
+def _passes(run: RunFolder, experiment: Experiment, algorithms: Sequence[str], scene: Any,
+            progress: bool) -> None:
+    """Every pass of a multi-pass experiment: simulated together (one scene, one scatterer
+    set: :func:`mitsar.experiment.runs.simulate_passes`), then each saved, focused with every
+    algorithm on the experiment's grid and measured as a one-pass run (:func:`pass_files`);
+    metrics, steps and figures named by pass, a table of the passes and a figure of their
+    tracks."""
+    start = time.perf_counter()
+    raws = simulate_passes(experiment, progress=progress, scene=scene)
+    run.step("simulate", start)
+    rows, summary = [], []
+    for index, raw in enumerate(raws):
+        files = pass_files(index)
+        single = pass_experiment(experiment, index)
+        run.product(raw, files.raw)
+        marks = (len(run.record["figures"]), len(run.record["warnings"]))
+        run_pipeline(run, single, algorithms, raw=raw, scene=scene, progress=progress,
+                     files=files, after_simulation=None if index else (
+                         lambda raw, single=single: _acquisition_figures(run, single, raw,
+                                                                         scene)))
+        _name_by_pass(run, index, algorithms, marks)
+        positions = raw["platform_position"].values
+        seed = int(raw.attrs["pass_seed"])
+        chosen = experiment.passes[index]
+        rows.append([index, chosen.name, [round(float(v), 4) for v in positions[0]],
+                     [round(float(v), 4) for v in positions[-1]], chosen.look.off_nadir_deg,
+                     chosen.look.squint_deg, seed])
+        summary.append({"index": index, "name": chosen.name, "raw": files.raw, "seed": seed,
+                        "navigation_seed": raw.attrs.get("pass_navigation_seed"),
+                        "offset": list(chosen.offset), "sweeps": int(raw.sizes["sweep"])})
+    run.record["passes"] = summary
+    run.record["tables"].append({
+        "title": f"Passes ({len(raws)}): first and last antenna position, look and noise seed",
+        "header": ["pass", "name", "first position [m]", "last position [m]",
+                   "off-nadir [deg]", "squint [deg]", "noise seed"], "rows": rows})
+    run.figure(_pass_tracks(raws, experiment), "passes.png", "Passes",
+               "antenna tracks of every pass, seen from above and across the tracks")
+    if len(raws) > 1:
+        _combined(run, experiment, raws, algorithms, progress)
+
+
+COMBINED_IMAGE = "image_{algorithm}_passes.nc"
+"""The image of all passes combined coherently, in a ``mitsar run`` folder."""
+
+
+def _combined(run: RunFolder, experiment: Experiment, raws: Sequence[Any],
+              algorithms: Sequence[str], progress: bool) -> None:
+    """Every pass back-projected onto the experiment's grid and summed coherently
+    (:func:`mitsar.experiment.runs.run_focus_passes`), per back-projection algorithm asked;
+    saved, drawn and measured as ``"<algorithm> passes"``."""
+    grid = experiment.focus.grid
+    if grid is None or grid.get("kind", "slant") == "slant":
+        run.warn("passes: not combined: that needs a [focus.grid] in the scene frame "
+                 "(kind = 'plane' or 'points'); a slant grid belongs to one track")
+        return
+    for algorithm in algorithms:
+        if algorithm not in ("bpa", "ffbp"):
+            run.warn(f"passes: {algorithm}: not combined (back-projection only: -a bpa)")
+            continue
+        options = dataclasses.replace(experiment.focus, algorithm=algorithm, autofocus=None)
+        start = time.perf_counter()
+        try:
+            image = run_focus_passes(list(raws), options, progress=progress)
+        except (ParameterError, MitsarError) as error:
+            run.warn(f"passes: {algorithm}: not combined: {error}")
+            continue
+        label = f"{algorithm} passes"
+        run.step(f"focus {label}", start)
+        run.product(image, COMBINED_IMAGE.format(algorithm=algorithm))
+        figure, ax = plt.subplots(figsize=(7, 6), layout="constrained")
+        plot_image(image, ax=ax, marks=target_marks(image))
+        run.figure(figure, f"image_{algorithm}_passes.png",
+                   f"Image, {algorithm.upper()}, {len(raws)} passes combined",
+                   "every pass back-projected onto the same pixels, complex images averaged "
+                   f"(elevation resolution {image.attrs.get('elevation_resolution', 'n/a')} m "
+                   "for the stack); dB re peak")
+        if metrics_request(image)[0] is None:
+            continue
+        start = time.perf_counter()
+        try:
+            metrics = run_metrics(image)
+        except (ParameterError, MitsarError, ValueError) as error:
+            run.warn(f"passes: {algorithm}: not measured: {error}")
+            continue
+        run.step(f"metrics {label}", start)
+        run.record["metrics"][label] = metrics
+        axes = plot_cuts(image, metrics)
+        run.figure(axes[0].figure, f"cuts_{algorithm}_passes.png",
+                   f"Cuts, {algorithm.upper()}, {len(raws)} passes combined",
+                   "range and azimuth cuts through the peak of the combined image")
+
+
+def _name_by_pass(run: RunFolder, index: int, algorithms: Sequence[str],
+                  marks: tuple[int, int]) -> None:
+    """Suffix what one pass's pipeline recorded (metrics, steps, figure titles, warnings)
+    with its pass, so that the passes do not overwrite each other in the record."""
+    label = f"pass{index}"
+    for algorithm in algorithms:
+        if algorithm in run.record["metrics"]:
+            run.record["metrics"][f"{algorithm} {label}"] = run.record["metrics"].pop(algorithm)
+        for step in (f"focus {algorithm}", f"metrics {algorithm}"):
+            if step in run.record["steps"]:
+                run.record["steps"][f"{step} {label}"] = run.record["steps"].pop(step)
+    for entry in run.record["figures"][marks[0]:]:
+        entry["title"] = f"{entry['title']} (pass {index})"
+    run.record["warnings"][marks[1]:] = [f"pass {index}: {warning}"
+                                         for warning in run.record["warnings"][marks[1]:]]
+
+
+def _pass_tracks(raws: Sequence[Any], experiment: Experiment) -> Any:
+    """The passes' antenna tracks from above (x, y; targets marked) and across (y, z: a
+    straight leg along x is a point there, so centimetre steps between passes show)."""
+    figure, (above, across) = plt.subplots(1, 2, figsize=(10, 4), layout="constrained")
+    for raw in raws:
+        positions = raw["platform_position"].values
+        line, = above.plot(positions[:, 0], positions[:, 1], label=f"pass {raw.attrs['pass']}")
+        across.plot(positions[:, 1], positions[:, 2], "o-", color=line.get_color(),
+                    markersize=4, label=f"pass {raw.attrs['pass']}")
+    for target in experiment.targets:
+        above.plot(target.position[0], target.position[1], "k+")
+    for ax, (xlabel, ylabel), title in ((above, ("x [m]", "y [m]"), "from above (+: targets)"),
+                                        (across, ("y [m]", "z [m]"), "across the tracks")):
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel(ylabel)
+        ax.set_title(title)
+        ax.grid(True, alpha=0.3)
+    across.legend(fontsize="small")
+    return figure
 
 
 INTERFEROMETRY_FOLDER = "interferometry"
