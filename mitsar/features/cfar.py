@@ -460,6 +460,8 @@ def cfar(image: Any, pfa: float = 1e-6, method: str = "ca", guard: Any = None,
     dims = _spatial_dims(data)
     values = np.asarray(data["image"].transpose(*dims).values)
     power = np.square(np.abs(values)).astype(float)
+    finite = np.isfinite(power)  # NaN/inf pixels: not tested, zero power as training cells
+    power = np.where(finite, power, 0.0)
     position = _positions(data, dims)
     steps, spacing = _axes(position)
     cell, source = _resolution(data, len(dims), steps, resolution)
@@ -492,6 +494,7 @@ def cfar(image: Any, pfa: float = 1e-6, method: str = "ca", guard: Any = None,
         noise = np.where(tested, ordered, 0.0) / os_noise_scale(counts, ranks)
     alpha = (ca_threshold_factor(pfa, n) if method == "ca"
              else os_threshold_factor(pfa, n, rank_used))
+    tested &= finite
     noise = np.where(tested, noise, np.nan)
     threshold = np.where(tested, threshold, np.nan)
     detected = tested & (power > threshold)
