@@ -89,3 +89,19 @@ def test_a_scene_beyond_max_range_is_said_and_recorded():
         said = [str(w.message) for w in caught if "max_range" in str(w.message)]
         assert bool(said) == expected
         assert ("reception_warnings" in raw.attrs) == expected
+
+
+def test_a_rendering_integrator_in_the_scene_is_said_to_be_ignored(tmp_path):
+    """A scene written for rendering (``<integrator type="path"/>``) is traced by the default
+    radar integrator, and the user is told (issue 27)."""
+    scene = tmp_path / "rendering.xml"
+    scene.write_text('<scene version="3.0.0"><integrator type="path"/>'
+                     '<shape type="rectangle"><bsdf type="diffuse"/>'
+                     '<transform name="to_world"><translate x="15" y="8" z="0"/></transform>'
+                     '</shape></scene>')
+    track = mitsar.Trajectory.linear([14.8, 1.4, 4.5], [0.5, 0.0, 0.0], 0.02)
+    with pytest.warns(MitsarWarning, match="PathIntegrator.*not a radar integrator"):
+        try:
+            mitsar.simulate_scene(mitsar.Radar(), track, LOOK, str(scene))
+        except mitsar.MitsarError:
+            pass  # whatever the scene gives: the warning came first

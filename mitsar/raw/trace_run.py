@@ -432,6 +432,12 @@ def _radar_integrator(scene: Any, mi: Any) -> Any:
     integrator = scene.integrator()
     if plugin_kind(integrator) is PluginKind.RADAR:
         return integrator
+    if integrator is not None:  # a rendering integrator: not ours to use, and said so
+        name = str(integrator).split("[", 1)[0].strip() or type(integrator).__name__
+        warnings.warn(f"the scene's <integrator> ({name}) is not a radar integrator: it is "
+                      "ignored and a default <integrator type=\"radar\"/> traces the scene "
+                      "(declare one to set the trace's options in the XML)", MitsarWarning,
+                      stacklevel=4)
     if id(scene) not in _DEFAULT_INTEGRATORS:
         while len(_DEFAULT_INTEGRATORS) >= 2:
             _DEFAULT_INTEGRATORS.pop(next(iter(_DEFAULT_INTEGRATORS)))
