@@ -69,6 +69,8 @@ def _parse_planes(tables: list[Table]) -> list[dict[str, Any]]:
     planes = []
     for i, t in enumerate(tables):
         name = t.string("name", f"surface{i}")
+        if any(plane["name"] == name for plane in planes):  # maps and tables are by name
+            raise t.error("name", "a name no other [[surfaces]] entry has", name)
         origin = t.vector("origin", 3, unit="m")
         axis_u = t.vector("axis_u", 3)
         axis_v = t.vector("axis_v", 3)
