@@ -279,6 +279,10 @@ def test_bad_images_raise_parameter_error():
             mitsar.detect(image)
     with pytest.raises(ParameterError):
         point_features(xr.Dataset())
+    image = _noise((30, 30), seed=1)
+    image[15, 15] += 20.0
+    xr.testing.assert_identical(point_features(image, pfa=1e-4, method="os"),
+                                mitsar.detect(image, pfa=1e-4, method="os"))
     with pytest.raises(ParameterError):
         line_features(np.zeros((5, 2)), tolerance=0.1)
     with pytest.raises(ParameterError):

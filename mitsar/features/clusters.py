@@ -18,13 +18,14 @@ fits and map scores can read the cells themselves (a wall is one long cluster).
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 import xarray as xr
 from numpy.typing import NDArray
 from scipy import ndimage
 
-from mitsar.errors import ParameterError
+from mitsar.features.cfar import cfar
 
 __all__ = ["peak_position_sigma", "point_features"]
 
@@ -60,14 +61,18 @@ def _attrs(units: str, long_name: str) -> dict[str, str]:
     return {"units": units, "long_name": long_name}
 
 
-def point_features(cfar_map: xr.Dataset) -> xr.Dataset:
+def point_features(source: Any, **options: Any) -> xr.Dataset:
     """Cluster a CFAR map (:func:`mitsar.features.cfar.cfar`) into point features.
 
     Parameters
     ----------
-    cfar_map : xarray.Dataset
-        The output of :func:`~mitsar.features.cfar.cfar`: ``power``, ``noise``, ``detected``,
-        ``position`` and the ``resolution``/``axes`` attributes.
+    source : xarray.Dataset or array_like
+        The output of :func:`~mitsar.features.cfar.cfar` (``power``, ``noise``, ``detected``,
+        ``position`` and the ``resolution``/``axes`` attributes), or an image, which
+        :func:`~mitsar.features.cfar.cfar` tests first.
+    **options
+        Keywords of :func:`~mitsar.features.cfar.cfar` (``pfa``, ``method``, ``guard``, ...)
+        for an image.
 
     Returns
     -------
@@ -78,9 +83,8 @@ def point_features(cfar_map: xr.Dataset) -> xr.Dataset:
         cell): ``cell_position`` (cell, xyz) [m], ``cell_amplitude``, ``cell_snr`` [1],
         ``cell_detection`` (index of its cluster). Attributes: the CFAR map's.
     """
-    if cfar_map.attrs.get("product") != "cfar":
-        raise ParameterError("mitsar.features.point_features", "cfar_map",
-                             "the output of mitsar.features.cfar", sorted(cfar_map.attrs))
+    is_map = isinstance(source, xr.Dataset) and source.attrs.get("product") == "cfar"
+    cfar_map = source if is_map else cfar(source, **options)
     dims = tuple(cfar_map.attrs["dims"])
     power = cfar_map["power"].transpose(*dims).values
     noise = cfar_map["noise"].transpose(*dims).values
