@@ -192,3 +192,22 @@ def use_backend(backend: str | None) -> Iterator[str]:
         yield name
     finally:
         _override.pop()
+
+
+UNSAFE_WIDTH_BAND = 16
+"""Dr.Jit 1.5's LLVM backend crashes (SIGSEGV inside ``dr.eval``) on some kernels whose width
+lies just below a power of two from 2^20 up: measured at ``2^22 - d`` for ``3 <= d <= 14``
+(and at ``2^20 - 4``, ``2^23 - 4``), never at ``2^k`` itself nor at ``d >= 16``
+(docs/reliability.md §5, ``scripts/drjit_width_crash.py``)."""
+
+
+def safe_width(width: int) -> int:
+    """The kernel width to launch for ``width`` lanes: ``width`` itself, or the next power of
+    two when ``width`` lies in the band below it where Dr.Jit 1.5 crashes
+    (:data:`UNSAFE_WIDTH_BAND`); callers pad their lanes to it and drop the extra results."""
+    width = int(width)
+    if width >= 2**20:
+        power = 1 << (width - 1).bit_length()
+        if 0 < power - width < UNSAFE_WIDTH_BAND:
+            return power
+    return width

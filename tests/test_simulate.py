@@ -268,3 +268,42 @@ def test_a_long_pass_simulates_in_kernel_chunks():
     assert raw.sizes["sweep"] == 8000
     assert magnitude.max() <= 1 + 1e-9
     assert magnitude[4000].mean() == pytest.approx(1.0, abs=1e-3)
+
+
+_OLD_CHUNK = """
+import numpy as np, mitsar
+radar = mitsar.Radar()
+duration = 8000 / radar.prf
+track = mitsar.Trajectory.linear([15.0 - 0.25 * duration, 1.4, 4.5], [0.5, 0, 0], duration)
+look = mitsar.Look(np.degrees(np.arctan2(6.6, 4.5)))
+target = [mitsar.PointTarget((15, 8, 0))]
+runs = [mitsar.simulate_point_targets(radar, track, look, target, normalized=True,
+                                      chunk_elements=chunk)["raw"].values
+        for chunk in (2**22, 2**22, 2**20)]
+print(np.array_equal(runs[0], runs[2]) and np.array_equal(runs[1], runs[2]))
+"""
+
+
+@pytest.mark.slow
+def test_the_old_kernel_chunk_runs_padded_past_the_dr_jit_crash():
+    """Dr.Jit 1.5's LLVM backend crashes at some kernel widths just below a power of two
+    (2^22 - d, 3 <= d <= 14: scripts/drjit_width_crash.py, docs/reliability.md §5). The old
+    chunk of 2**22 elements gives 6355 sweeps x 660 samples = 2^22 - 4 lanes, which crashed
+    twice in a row; mitsar.backend.safe_width pads them to 2^22, and the padded runs give the
+    unpadded chunking's samples bit for bit (lanes are independent). In a subprocess: a crash
+    fails the test instead of the suite."""
+    import subprocess
+    import sys
+
+    done = subprocess.run([sys.executable, "-c", _OLD_CHUNK], capture_output=True, text=True,
+                          timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.strip().endswith("True")
+
+
+def test_safe_width_pads_only_the_crashing_band():
+    from mitsar.backend import safe_width
+
+    assert safe_width(2**22 - 4) == 2**22 and safe_width(2**22 - 15) == 2**22
+    for width in (2**22, 2**22 - 16, 2**22 + 1, 2**20 - 100, 1000, 2**19 - 4):
+        assert safe_width(width) == width

@@ -20,7 +20,7 @@ import xarray as xr
 from numpy.typing import NDArray
 from tqdm.auto import tqdm
 
-from mitsar.backend import array_namespace, namespace_of
+from mitsar.backend import array_namespace, namespace_of, safe_width
 from mitsar.budget import require_memory
 from mitsar.checks import integer
 from mitsar.checks import seed as check_seed
@@ -578,15 +578,25 @@ def _sum_echoes_drjit(radar: Radar, trajectory: Trajectory, geometry: SweepGeome
         platform, receiver = _phase_centres(trajectory, absolute_time, offsets)
         platform = platform.reshape(-1, 3)
         chunk_amplitude = np.ascontiguousarray(amplitude[sweep_slice])
-        lanes = (Float64(platform[:, 0]), Float64(platform[:, 1]), Float64(platform[:, 2]),
-                 Float64(absolute_time.ravel()), Float64(np.tile(times, len(chunk_amplitude))))
+        width = len(platform)  # lanes, padded past Dr.Jit 1.5's crashing widths (safe_width):
+        pad = safe_width(width) - width  # < 16 lanes, one extra sweep of zero amplitude
+        if pad:
+            chunk_amplitude = np.vstack([chunk_amplitude, np.zeros_like(chunk_amplitude[:1])])
+
+        def lane_array(values: NDArray, pad: int = pad) -> Any:
+            return Float64(np.pad(np.ascontiguousarray(values), (0, pad), mode="edge"))
+
+        lanes = (lane_array(platform[:, 0]), lane_array(platform[:, 1]),
+                 lane_array(platform[:, 2]), lane_array(absolute_time.ravel()),
+                 lane_array(np.tile(times, width // sample_count)))
         receiver_lanes = (None if receiver is None
-                          else tuple(Float64(a) for a in receiver.reshape(-1, 3).T))
+                          else tuple(lane_array(a) for a in receiver.reshape(-1, 3).T))
         real, imag = _echo_loop(*lanes, *scatterer_arrays, Float64(chunk_amplitude.real.ravel()),
                                 Float64(chunk_amplitude.imag.ravel()), *constants,
                                 receiver_lanes)
         dr.eval(real, imag)
-        samples[sweep_slice] = (np.asarray(real) + 1j * np.asarray(imag)).reshape(-1, sample_count)
+        samples[sweep_slice] = (np.asarray(real)[:width]
+                                + 1j * np.asarray(imag)[:width]).reshape(-1, sample_count)
     return samples
 
 
