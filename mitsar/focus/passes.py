@@ -36,7 +36,9 @@ dims (``("z", "y", "x")`` for a volume) and, recording the passes:
     Perpendicular position ``b_n`` of each pass along the elevation axis (mean over its
     channels), from the mean pass position.
 attributes
-    ``passes`` (count), ``pass_combine``, ``pass_raw_seeds``, ``pass_names`` (the raw
+    ``passes`` (count), ``pass_combine``, ``pass_raw_seeds`` (each raw product's ``seed``: the
+    scene's, shared by an experiment's passes), ``pass_noise_seeds`` (each pass's own noise
+    seed, ``noise_seed`` or ``pass_seed``; -1 without), ``pass_names`` (the raw
     products' ``pass_name``, else their index), ``pass_channels`` (channels
     combined per pass, 1 without), and with two or more passes spread across the line of sight:
     ``elevation_axis`` (unit vector, world xyz), ``elevation_slant_range`` [m],
@@ -223,6 +225,9 @@ def focus_passes(raws: Sequence[xr.Dataset], algorithm: str, grid: Grid | dict |
     product.attrs.update(
         passes=count, pass_combine=combine, pass_channels=[int(c) for c in channels],
         pass_raw_seeds=[int(raw.attrs.get("seed", -1)) for raw in raws],
+        # each pass's own noise seed (an experiment's passes share the scene seed ``seed``)
+        pass_noise_seeds=[int(raw.attrs.get("noise_seed", raw.attrs.get("pass_seed", -1)))
+                          for raw in raws],
         pass_names=[str(raw.attrs.get("pass_name", k)) for k, raw in enumerate(raws)],
         algorithm=algorithm)
     product.attrs.pop("channel", None)
