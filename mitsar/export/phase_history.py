@@ -17,7 +17,11 @@ convention of NGA.STND.0068-1 CPHD 1.0.1 (§2 and §4, FX domain, ``SGN = -1``):
    1995 App. C, as :func:`mitsar.focus.compression.range_spectrum`), skipped when the product
    has none (``rvp = 0``). Sample n is now ``a exp(+j 2 pi f_n tau)``;
 3. SRP compensation: ``exp(-j 2 pi f_n tau_srp,k)``, ``tau_srp,k = 2 |p_k - SRP| / c``, so a
-   scatterer at ``Delta TOA = tau - tau_srp`` has phase ``2 pi f_n Delta TOA``;
+   scatterer at ``Delta TOA = tau - tau_srp`` has phase ``2 pi f_n Delta TOA``; for one
+   channel of a multi-channel product (:func:`mitsar.focus.channels.channel_view`) with its
+   transmitter at ``t_k`` and receiver at ``r_k`` (:func:`phase_centre_tracks`),
+   ``tau_srp,k = (|t_k - SRP| + |r_k - SRP|) / c``, and the ``"srp"`` motion removal takes
+   that bistatic delay's rate;
 4. CPHD sign: conjugation, phase ``SGN 2 pi f_n Delta TOA`` with ``SGN = -1``.
 
 Every step is invertible, and :func:`dechirped_samples` undoes them in reverse order (4 to 1):
@@ -44,13 +48,15 @@ from numpy.typing import ArrayLike, NDArray
 from mitsar.errors import ParameterError
 from mitsar.focus.aperture import doppler_geometry
 from mitsar.focus.motion import doppler_centroid, is_straight_track, motion_correction_phase
+from mitsar.model.geometry.attitude import body_offset_to_world
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
 from mitsar.model.signal import fast_time
-from mitsar.products.raw import radar_of
+from mitsar.products.raw import radar_of, sweep_rate
 
 __all__ = ["MOTION_MODES", "PhaseHistory", "dechirped_samples", "fx_phase_history",
-           "motion_phase", "motion_shift", "remove_motion", "restore_motion", "rvp_filter",
-           "scene_reference_point", "srp_delay_rate"]
+           "motion_phase", "motion_shift", "phase_centre_tracks", "remove_motion",
+           "restore_motion", "rvp_filter", "scene_reference_point", "srp_delay",
+           "srp_delay_rate"]
 
 MOTION_MODES = ("auto", "exact", "srp", "none")
 """Ways to remove the intra-sweep motion (module docstring); "auto" is "exact" on straight
@@ -73,13 +79,14 @@ class PhaseHistory:
     time: NDArray[np.float64]
     """(vectors,): mid-sweep time ``eta_k + T/2`` [s] (the stop-and-go instant)."""
     position: NDArray[np.float64]
-    """(vectors, 3): antenna phase centre at mid-sweep [m]."""
+    """(vectors, 3): antenna (transmit) phase centre at mid-sweep [m]."""
     velocity: NDArray[np.float64]
-    """(vectors, 3): antenna velocity at mid-sweep [m/s]."""
+    """(vectors, 3): antenna (transmit) phase centre velocity at mid-sweep [m/s]."""
     srp: NDArray[np.float64]
     """(3,): scene reference point [m]."""
     reference_range: NDArray[np.float64]
-    """(vectors,): ``|p_k - SRP|`` [m]."""
+    """(vectors,): ``|p_k - SRP|`` [m]; half the bistatic path
+    ``(|t_k - SRP| + |r_k - SRP|) / 2`` for a channel whose receiver is elsewhere."""
     motion: str
     """The intra-sweep motion removal applied ("exact", "srp" or "none")."""
     rvp_removed: bool
@@ -87,6 +94,74 @@ class PhaseHistory:
     azimuth_centre: float = 0.0
     """Azimuth frequency [Hz] the ``"exact"`` removal unwrapped its frequencies around (the
     data's Doppler centroid, ``-f_Dc``); 0 for the other modes."""
+    receive_position: NDArray[np.float64] | None = None
+    """(vectors, 3): receive phase centre at mid-sweep [m] of a channel whose receiver is not
+    its transmitter (:func:`phase_centre_tracks`); None: the same as ``position``."""
+    receive_velocity: NDArray[np.float64] | None = None
+    """(vectors, 3): velocity of the receive phase centre [m/s], with ``receive_position``."""
+    sweep_rate: float | None = None
+    """Rate [Hz] at which the vectors sample the aperture (:func:`mitsar.products.raw.
+    sweep_rate`: ``prf / N_tx`` for a TDM-MIMO channel); the ``"exact"`` removal's azimuth
+    frequencies span it."""
+
+
+def phase_centre_tracks(raw: xr.Dataset) -> tuple[NDArray, NDArray, NDArray | None,
+                                                      NDArray | None]:
+    """Transmit and receive phase centres of a (one-channel) raw product per sweep, and their
+    velocities.
+
+    A single-channel product is monostatic at its track: ``platform_position`` and
+    ``platform_velocity``, no receiver. One channel of a multi-channel product
+    (:func:`mitsar.focus.channels.channel_view`) holds its body-frame ``transmitter_offset``
+    and ``receiver_offset`` [m]: each phase centre is the track point plus the offset rotated
+    by the sweep's attitude (:func:`mitsar.model.geometry.attitude.body_offset_to_world`,
+    as the simulators and :func:`mitsar.focus.bp_setup.channel_phase_centres` place them), and
+    moves with the track's velocity plus the rate of the rotated offset (``numpy.gradient``
+    over the mid-sweep times: exactly zero at a constant attitude).
+
+    Parameters
+    ----------
+    raw : xarray.Dataset
+        Raw product with a (sweep, sample) ``raw``.
+
+    Returns
+    -------
+    transmit_position, transmit_velocity : ndarray, shape (sweeps, 3)
+        [m], [m/s].
+    receive_position, receive_velocity : ndarray, shape (sweeps, 3), or None
+        [m], [m/s]; None where the receiver is the transmitter (monostatic, ping-pong).
+    """
+    positions = np.asarray(raw["platform_position"].values, dtype=float)
+    velocities = np.asarray(raw["platform_velocity"].values, dtype=float)
+    if "transmitter_offset" not in raw.variables:
+        return positions, velocities, None, None
+    attitude = np.asarray(raw["attitude"].values, dtype=float).T
+    slow_time = np.asarray(raw["slow_time"].values, dtype=float)
+
+    def place(offset: NDArray) -> tuple[NDArray, NDArray]:
+        world = body_offset_to_world(offset, *attitude)
+        rate = (np.gradient(world, slow_time, axis=0) if len(slow_time) > 1
+                else np.zeros_like(world))
+        return positions + world, velocities + rate
+
+    transmit = np.asarray(raw["transmitter_offset"].values, dtype=float)
+    receive = np.asarray(raw["receiver_offset"].values, dtype=float)
+    transmit_position, transmit_velocity = place(transmit)
+    if np.array_equal(transmit, receive):
+        return transmit_position, transmit_velocity, None, None
+    return (transmit_position, transmit_velocity, *place(receive))
+
+
+def srp_delay(positions: ArrayLike, srp: ArrayLike,
+              receive_positions: ArrayLike | None = None) -> NDArray[np.float64]:
+    """Delay of the SRP per sweep [s]: ``2 |p_k - SRP| / c``, or
+    ``(|t_k - SRP| + |r_k - SRP|) / c`` with the receive phase centres ``r_k``."""
+    point = np.asarray(srp, dtype=float).reshape(3)
+    srp_range = np.linalg.norm(np.asarray(positions, dtype=float) - point, axis=1)
+    if receive_positions is None:
+        return 2.0 * srp_range / SPEED_OF_LIGHT
+    receive_range = np.linalg.norm(np.asarray(receive_positions, dtype=float) - point, axis=1)
+    return (srp_range + receive_range) / SPEED_OF_LIGHT
 
 
 def scene_reference_point(raw: xr.Dataset, image: xr.Dataset | None = None) -> NDArray:
@@ -102,17 +177,24 @@ def scene_reference_point(raw: xr.Dataset, image: xr.Dataset | None = None) -> N
     return origin + distance * look
 
 
-def fx_phase_history(raw: xr.Dataset, srp: ArrayLike, motion: str = "auto") -> PhaseHistory:
+def fx_phase_history(raw: xr.Dataset, srp: ArrayLike, motion: str = "auto", *,
+                     azimuth_centre: float | None = None) -> PhaseHistory:
     """FX-domain phase history of a dechirped raw product (module docstring).
 
     Parameters
     ----------
     raw : xarray.Dataset
-        Dechirped raw product (:mod:`mitsar.raw.product`), not a referenced recording.
+        Dechirped raw product (:mod:`mitsar.raw.product`), not a referenced recording; one
+        channel (a multi-channel product channel by channel:
+        :func:`mitsar.focus.channels.channel_view`, whose phase centres it then uses:
+        :func:`phase_centre_tracks`).
     srp : array_like, shape (3,)
         Scene reference point in the lab frame [m].
     motion : {"auto", "exact", "srp", "none"}
         Intra-sweep motion removal.
+    azimuth_centre : float, optional
+        Azimuth frequency [Hz] the ``"exact"`` removal unwraps around (default the data's
+        Doppler centroid ``-mean f_Dc``); the channels of one product share channel 0's.
 
     Returns
     -------
@@ -121,9 +203,12 @@ def fx_phase_history(raw: xr.Dataset, srp: ArrayLike, motion: str = "auto") -> P
     Raises
     ------
     ParameterError
-        For a referenced product, an unknown ``motion``, or ``"exact"`` on a track that is not
-        straight and uniform.
+        For a referenced product, a product with a ``channel`` dim, an unknown ``motion``, or
+        ``"exact"`` on a track that is not straight and uniform.
     """
+    if "channel" in raw["raw"].dims:
+        raise ParameterError("write_cphd", "raw", "one channel (mitsar.focus.channels."
+                             "channel_view(raw, k))", f"{raw.sizes['channel']} channels")
     if "reference_range" in raw.variables:
         raise ParameterError("write_cphd", "raw", "a dechirped raw product (absolute range)",
                              "a referenced recording (it is already phase history)")
@@ -132,31 +217,37 @@ def fx_phase_history(raw: xr.Dataset, srp: ArrayLike, motion: str = "auto") -> P
     radar = radar_of(raw)
     samples = np.asarray(raw["raw"].values, dtype=np.complex128)
     t = fast_time(radar)
-    positions = np.asarray(raw["platform_position"].values, dtype=float)
-    velocities = np.asarray(raw["platform_velocity"].values, dtype=float)
+    positions, velocities, receive, receive_velocity = phase_centre_tracks(raw)
     point = np.asarray(srp, dtype=float).reshape(3)
-    srp_range = np.linalg.norm(positions - point, axis=1)
+    delay = srp_delay(positions, point, receive)
+    reference_range = (np.linalg.norm(positions - point, axis=1) if receive is None
+                       else delay * (SPEED_OF_LIGHT / 2.0))
     straight, why = is_straight_track(raw, radar)
     if motion == "auto":
         motion = "exact" if straight else "srp"
     if motion == "exact" and not straight:
         raise ParameterError("write_cphd", "motion", "'srp' or 'none' for this track "
                              "('exact' needs a straight, uniform track)", why)
-    centre = -float(np.mean(doppler_centroid(raw, radar))) if motion == "exact" else 0.0
-    rate = srp_delay_rate(positions, velocities, point)
-    samples = remove_motion(samples, motion, t, radar, centre, rate)
+    centre = 0.0
+    if motion == "exact":
+        centre = (-float(np.mean(doppler_centroid(raw, radar))) if azimuth_centre is None
+                  else float(azimuth_centre))
+    delay_rates = _delay_rate(positions, velocities, point, receive, receive_velocity)
+    samples = remove_motion(samples, motion, t, radar, centre, delay_rates,
+                            sweep_rate(raw, radar))
     rvp = bool(int(raw.attrs.get("rvp", 1)))
     if rvp:
         samples = rvp_filter(samples, radar, +1)
     rf = radar.carrier_frequency + radar.chirp_rate * t
-    samples = samples * _srp_phase(rf, 2.0 * srp_range / SPEED_OF_LIGHT, -1)
+    samples = samples * _srp_phase(rf, delay, -1)
     signal = np.conj(samples) if PHASE_SIGN < 0 else samples
     return PhaseHistory(
         signal=signal, first_frequency=float(rf[0]),
         frequency_step=radar.chirp_rate / radar.sampling_frequency,
         time=np.asarray(raw["slow_time"].values, dtype=float) + radar.sweep_duration / 2,
-        position=positions, velocity=velocities, srp=point, reference_range=srp_range,
-        motion=motion, rvp_removed=rvp, azimuth_centre=centre)
+        position=positions, velocity=velocities, srp=point, reference_range=reference_range,
+        motion=motion, rvp_removed=rvp, azimuth_centre=centre, receive_position=receive,
+        receive_velocity=receive_velocity, sweep_rate=sweep_rate(raw, radar))
 
 
 def srp_delay_rate(positions: ArrayLike, velocities: ArrayLike, srp: ArrayLike) -> NDArray:
@@ -165,6 +256,16 @@ def srp_delay_rate(positions: ArrayLike, velocities: ArrayLike, srp: ArrayLike) 
     point = np.asarray(srp, dtype=float).reshape(1, 3)
     return doppler_geometry(point, np.asarray(positions, dtype=float),
                             np.asarray(velocities, dtype=float))[2][:, 0]
+
+
+def _delay_rate(positions: NDArray, velocities: NDArray, srp: NDArray,
+                receive: NDArray | None, receive_velocity: NDArray | None) -> NDArray:
+    """The SRP's delay rate [s/s]: :func:`srp_delay_rate`, or the mean of the transmitter's and
+    the receiver's, ``(v_t.u_t + v_r.u_r) / c``, for a bistatic channel."""
+    rate = srp_delay_rate(positions, velocities, srp)
+    if receive is None:
+        return rate
+    return (rate + srp_delay_rate(receive, receive_velocity, srp)) / 2.0
 
 
 def _srp_phase(rf: NDArray, srp_delay: NDArray, sign: int) -> NDArray:
@@ -184,7 +285,8 @@ def rvp_filter(samples: NDArray, radar: Radar, sign: int) -> NDArray:
 def motion_phase(sweeps: int, t: NDArray, prf: float, centre: float) -> NDArray:
     """``H_cm = exp(-j 2 pi f_eta t)`` (:func:`mitsar.focus.motion.motion_correction_phase`;
     Meta et al. 2007 §II-B) on the azimuth FFT grid of :func:`motion_shift`: a power of two
-    >= twice ``sweeps`` bins, f_eta unwrapped around ``centre`` [Hz]. Shape (bins, N)."""
+    >= twice ``sweeps`` bins, f_eta unwrapped around ``centre`` [Hz]. Shape (bins, N).
+    ``prf``: the rate [Hz] at which the sweeps sample the aperture."""
     size = int(2 ** np.ceil(np.log2(2 * sweeps)))
     frequency = np.fft.fftfreq(size, 1.0 / prf)
     frequency = centre + (frequency - centre + prf / 2) % prf - prf / 2
@@ -205,11 +307,13 @@ def motion_shift(samples: NDArray, phase: NDArray, sign: int) -> NDArray:
 
 
 def remove_motion(samples: NDArray, motion: str, t: NDArray, radar: Radar, centre: float,
-                  delay_rate: NDArray) -> NDArray:
+                  delay_rate: NDArray, rate: float | None = None) -> NDArray:
     """Step 1 (module docstring): ``"exact"`` :func:`motion_shift`, ``"srp"``
-    ``exp(-j 2 pi f_c dtau_srp/dt t)``, ``"none"`` nothing."""
+    ``exp(-j 2 pi f_c dtau_srp/dt t)``, ``"none"`` nothing. ``rate``: the sweeps' rate [Hz]
+    (default the PRF; ``prf / N_tx`` for a TDM-MIMO channel)."""
     if motion == "exact":
-        return motion_shift(samples, motion_phase(len(samples), t, radar.prf, centre), +1)
+        return motion_shift(samples, motion_phase(len(samples), t, radar.prf if rate is None
+                                                  else rate, centre), +1)
     if motion == "srp":
         return samples * np.exp(-2j * np.pi * radar.carrier_frequency
                                 * delay_rate[:, None] * t[None, :])
@@ -218,8 +322,8 @@ def remove_motion(samples: NDArray, motion: str, t: NDArray, radar: Radar, centr
 
 def restore_motion(samples: NDArray, motion: str, t: NDArray, radar: Radar, centre: float,
                    delay_rate: NDArray, tolerance: float = 1e-9,
-                   iterations: int = 200) -> NDArray:
-    """Inverse of :func:`remove_motion`.
+                   iterations: int = 200, rate: float | None = None) -> NDArray:
+    """Inverse of :func:`remove_motion` (``rate``: the sweeps' rate [Hz], default the PRF).
 
     ``"exact"``: least squares ``min ||A x - y||`` for every fast-time sample at once by
     conjugate gradients on the normal equations (CGLS, docs/products.md, the round trip), with
@@ -233,7 +337,7 @@ def restore_motion(samples: NDArray, motion: str, t: NDArray, radar: Radar, cent
     if motion != "exact":
         return samples
 
-    phase = motion_phase(len(samples), t, radar.prf, centre)
+    phase = motion_phase(len(samples), t, radar.prf if rate is None else rate, centre)
 
     def forward(x: NDArray) -> NDArray:
         return motion_shift(x, phase, +1)
@@ -272,7 +376,10 @@ def restore_motion(samples: NDArray, motion: str, t: NDArray, radar: Radar, cent
 def dechirped_samples(signal: ArrayLike, radar: Radar, positions: ArrayLike,
                       velocities: ArrayLike, srp: ArrayLike, motion: str,
                       azimuth_centre: float = 0.0, rvp_removed: bool = True,
-                      phase_sign: int = PHASE_SIGN) -> NDArray[np.complex128]:
+                      phase_sign: int = PHASE_SIGN, *,
+                      receive_positions: ArrayLike | None = None,
+                      receive_velocities: ArrayLike | None = None,
+                      sweep_rate: float | None = None) -> NDArray[np.complex128]:
     """The dechirped sweeps a phase history was made from: steps 4 to 1 undone.
 
     Parameters
@@ -283,7 +390,7 @@ def dechirped_samples(signal: ArrayLike, radar: Radar, positions: ArrayLike,
     radar : Radar
         The radar of the dechirped product.
     positions, velocities : array_like, shape (sweeps, 3)
-        Mid-sweep antenna positions [m] and velocities [m/s].
+        Mid-sweep antenna (transmit) phase centres [m] and their velocities [m/s].
     srp : array_like, shape (3,)
         Scene reference point [m].
     motion : {"exact", "srp", "none"}
@@ -294,6 +401,11 @@ def dechirped_samples(signal: ArrayLike, radar: Radar, positions: ArrayLike,
         Whether the residual video phase was removed (and is put back here).
     phase_sign : {+1, -1}
         Sign of the phase history (CPHD ``SGN``).
+    receive_positions, receive_velocities : array_like, shape (sweeps, 3), optional
+        Receive phase centres [m] and velocities [m/s] of a bistatic channel
+        (:attr:`PhaseHistory.receive_position`); None: monostatic.
+    sweep_rate : float, optional
+        :attr:`PhaseHistory.sweep_rate` [Hz] (default the PRF).
 
     Returns
     -------
@@ -307,11 +419,15 @@ def dechirped_samples(signal: ArrayLike, radar: Radar, positions: ArrayLike,
     samples = np.conj(samples) if phase_sign < 0 else samples
     t = fast_time(radar)
     positions = np.asarray(positions, dtype=float)
+    velocities = np.asarray(velocities, dtype=float)
     point = np.asarray(srp, dtype=float).reshape(3)
-    srp_range = np.linalg.norm(positions - point, axis=1)
+    receive = None if receive_positions is None else np.asarray(receive_positions, float)
+    receive_velocity = (None if receive_velocities is None
+                        else np.asarray(receive_velocities, float))
     rf = radar.carrier_frequency + radar.chirp_rate * t
-    samples = samples * _srp_phase(rf, 2.0 * srp_range / SPEED_OF_LIGHT, +1)
+    samples = samples * _srp_phase(rf, srp_delay(positions, point, receive), +1)
     if rvp_removed:
         samples = rvp_filter(samples, radar, -1)
-    rate = srp_delay_rate(positions, velocities, point)
-    return restore_motion(samples, motion, t, radar, azimuth_centre, rate)
+    delay_rates = _delay_rate(positions, velocities, point, receive, receive_velocity)
+    return restore_motion(samples, motion, t, radar, azimuth_centre, delay_rates,
+                          rate=sweep_rate)
