@@ -19,10 +19,14 @@ aperture seen from a point.
 On a curved track the direction sine along each sweep's *own* velocity also turns with the
 heading, so a window on it processes an angular span of the line of sight that follows the
 turn rate, not ``lambda / (2 rho)``. :func:`aspect_frames` gives every pixel one fixed
-direction, the (interpolated) velocity direction at its beam-centre crossing, and the sine of
-its line of sight there: the window on ``l_hat . d_pixel - u_pixel`` then spans exactly the
+direction, the (interpolated) *mean-track* direction at its beam-centre crossing, and the sine
+of its line of sight there: the window on ``l_hat . d_pixel - u_pixel`` then spans exactly the
 line-of-sight (aspect) angle the resolution asks for, on any track (docs/focusing.md, "Curved
-tracks"). On a straight track the frame is the track's and nothing changes.
+tracks"). The mean track (:func:`mitsar.model.geometry.aperture.mean_track_velocity`: the
+velocity averaged over three passes of a 1 s boxcar) follows turns but not a cross-track wander of
+a few centimetres, which swings the instantaneous velocity by up to +-25 deg but moves no line
+of sight (docs/focusing.md, "An aperture that ignores the wander"). On a straight track the
+frame is the track's and nothing changes.
 """
 
 from __future__ import annotations
@@ -35,6 +39,7 @@ import xarray as xr
 from numpy.typing import ArrayLike, NDArray
 
 from mitsar.focus.windows import evaluate_window
+from mitsar.model.geometry.aperture import MEAN_TRACK_TIME, mean_track_velocity
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
 
 __all__ = [
@@ -47,6 +52,7 @@ __all__ = [
     "doppler_geometry",
     "full_aperture_weight",
     "is_uniform_straight_track",
+    "mean_track_frame",
     "normalise_image",
     "sweep_window",
     "track_coordinates",
@@ -263,16 +269,22 @@ def aperture_resolution(raw: xr.Dataset, point: ArrayLike) -> float:
 
 
 def aspect_frames(pixels: NDArray, positions: NDArray, velocities: NDArray,
-                  centroid_sine: NDArray, *, samples: int = 256, chunk: int = 32768
+                  centroid_sine: NDArray, *, samples: int = 256, chunk: int = 32768,
+                  smoothing_time: float = MEAN_TRACK_TIME, sweep_interval: float | None = None
                   ) -> tuple[NDArray, NDArray]:
     """Per-pixel window frame of the aspect-angle window for curved tracks (module docstring).
 
-    The beam-centre crossing of a pixel is where its direction sine along the sweep's own
-    velocity equals the sweep's Doppler-centroid sine, ``v_hat_k . l_hat_k = u_c,k``. It is
-    found on ``samples`` evenly spaced sweeps (the crossing nearest the track if the pixel is
-    seen more than once, e.g. before and after a U-turn; the closest approach to the beam
-    centre if it never crosses), refined by a secant step between the two sweeps around it,
-    with positions and velocities interpolated linearly there.
+    The frame is the **mean track**'s: velocities ``v_bar`` averaged over a smooth window
+    (:func:`mitsar.model.geometry.aperture.mean_track_velocity`, boxcars of
+    ``smoothing_time``), and the Doppler-centroid sine in that frame
+    ``u_bar = <|v| u_c> / |v_bar|`` (the same average), which is exactly ``b_hat . v_bar_hat``
+    wherever the boresight b is constant over the window (u_c = b . v_hat: a multirotor holding
+    its heading while it wanders). The beam-centre crossing of a pixel is where
+    ``v_bar_hat_k . l_hat_k = u_bar_k``. It is found on ``samples`` evenly spaced sweeps (the
+    crossing nearest the track if the pixel is seen more than once, e.g. before and after a
+    U-turn; the closest approach to the beam centre if it never crosses), refined by a secant
+    step between the two sweeps around it, with positions and mean velocities interpolated
+    linearly there.
 
     Parameters
     ----------
@@ -281,19 +293,26 @@ def aspect_frames(pixels: NDArray, positions: NDArray, velocities: NDArray,
     positions, velocities : ndarray, shape (S, 3)
         Mid-sweep antenna positions [m] and velocities [m/s].
     centroid_sine : ndarray, shape (S,)
-        Doppler-centroid direction sine of every sweep.
+        Doppler-centroid direction sine of every sweep (along its own velocity).
     samples : int
         Sweeps sampled in the coarse search.
     chunk : int
         Pixels per NumPy block (memory ~ 60 bytes x samples x chunk).
+    smoothing_time : float
+        Boxcar length of the mean track [s]; 0 uses each sweep's own velocity (the frame of
+        earlier versions, which follows the wander).
+    sweep_interval : float, optional
+        Time between sweeps [s]; default: the median of ``|p_k+1 - p_k| / |v_k|``.
 
     Returns
     -------
     direction : ndarray, shape (P, 3)
-        Unit velocity direction at the crossing.
+        Unit mean-track direction at the crossing.
     centre_sine : ndarray, shape (P,)
         ``d_hat . l_hat`` at the crossing (l_hat: antenna to pixel).
     """
+    velocities, centroid_sine = mean_track_frame(positions, velocities, centroid_sine,
+                                                 smoothing_time, sweep_interval)
     sweeps = len(positions)
     coarse = np.unique(np.linspace(0, sweeps - 1, min(samples, sweeps)).round().astype(int))
     direction = np.empty_like(pixels, dtype=float)
@@ -317,6 +336,43 @@ def aspect_frames(pixels: NDArray, positions: NDArray, velocities: NDArray,
         centre[start:start + chunk] = (np.einsum("pi,pi->p", sight, unit)
                                        / np.linalg.norm(sight, axis=-1))
     return direction, centre
+
+
+def mean_track_frame(positions: NDArray, velocities: NDArray, centroid_sine: NDArray,
+                     smoothing_time: float = MEAN_TRACK_TIME,
+                     sweep_interval: float | None = None) -> tuple[NDArray, NDArray]:
+    """Mean-track velocity ``v_bar`` [m/s] and centroid sine ``u_bar`` of every sweep.
+
+    ``v_bar = <v>`` and ``u_bar = <|v| u_c> / |v_bar|``, ``<.>`` the mean-track average of
+    :func:`mitsar.model.geometry.aperture.mean_track_velocity`; since ``|v| u_c = b . v``
+    (b the boresight), ``u_bar = b . v_bar / |v_bar|`` wherever b is constant over the window.
+    Where the mean track stands still (``|v_bar| = 0``, a hover) the sweep's own velocity and
+    centroid are kept. See :func:`aspect_frames` for the parameters.
+    """
+    positions = np.asarray(positions, dtype=float)
+    velocities = np.asarray(velocities, dtype=float)
+    centroid_sine = np.asarray(centroid_sine, dtype=float)
+    speed = np.linalg.norm(velocities, axis=-1)
+    if len(positions) < 2 or smoothing_time <= 0:
+        return velocities, centroid_sine
+    if sweep_interval is None:
+        step = np.linalg.norm(np.diff(positions, axis=0), axis=-1)
+        moving = 0.5 * (speed[1:] + speed[:-1])
+        ratio = step[moving > 0] / moving[moving > 0]
+        if not len(ratio):
+            return velocities, centroid_sine
+        sweep_interval = float(np.median(ratio))
+    if not sweep_interval > 0:
+        return velocities, centroid_sine
+    mean = mean_track_velocity(np.column_stack([velocities, speed * centroid_sine]),
+                               sweep_interval, smoothing_time)
+    mean_velocity = mean[:, :3]
+    mean_speed = np.linalg.norm(mean_velocity, axis=-1)
+    still = ~(mean_speed > 1e-9 * max(float(speed.max()), 1e-300))
+    mean_centroid = mean[:, 3] / np.where(still, 1.0, mean_speed)
+    mean_velocity[still] = velocities[still]
+    mean_centroid[still] = centroid_sine[still]
+    return mean_velocity, np.clip(mean_centroid, -1.0, 1.0)
 
 
 def _centroid_offset(pixels: NDArray, position: NDArray, velocity: NDArray,

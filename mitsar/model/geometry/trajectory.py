@@ -7,6 +7,7 @@ cubic Hermite interpolation). All are evaluated vectorised on arrays of times [s
 
 from __future__ import annotations
 
+import math
 import warnings
 from dataclasses import dataclass, field
 from typing import Literal
@@ -17,6 +18,7 @@ from scipy.interpolate import CubicHermiteSpline, CubicSpline
 
 from mitsar.checks import positive, vector
 from mitsar.errors import MitsarWarning, ParameterError
+from mitsar.model.geometry.aperture import MEAN_TRACK_TIME, mean_track_velocity
 from mitsar.model.geometry.flight import sample_flight
 
 _VECTOR = "3 finite numbers [m or m/s]"
@@ -39,6 +41,48 @@ def is_vertical(steps: NDArray[np.float64]) -> bool:
     return bool(np.any((length > 0) & ~(np.hypot(steps[:, 0], steps[:, 1]) > 1e-6 * length)))
 
 
+HEADINGS = ("mean", "velocity")
+"""Named headings of :meth:`Trajectory.navigation` for data without attitude."""
+
+
+def _default_attitude(times: NDArray, spline: CubicHermiteSpline, heading: str | ArrayLike,
+                      smoothing: float) -> NDArray[np.float64] | None:
+    """Attitude [rad] at the knots of navigation data without attitude (None: velocity-aligned,
+    evaluated wherever asked); see :meth:`Trajectory.navigation`."""
+    if not isinstance(heading, str):
+        try:
+            values = np.asarray(heading, dtype=float)
+        except (TypeError, ValueError):
+            values = None
+        if values is None or values.shape != times.shape or not np.all(np.isfinite(values)):
+            raise ParameterError("Trajectory", "heading", f"one of {list(HEADINGS)} or "
+                                 f"{len(times)} finite headings [deg] (one per knot)",
+                                 heading if values is None else values.shape)
+        return np.column_stack([np.radians(values), np.zeros((len(times), 2))])
+    if heading not in HEADINGS:
+        raise ParameterError("Trajectory", "heading", f"one of {list(HEADINGS)} or "
+                             "an array of headings [deg]", heading)
+    if not (np.isfinite(smoothing) and smoothing >= 0):
+        raise ParameterError("Trajectory", "heading_smoothing", "a finite time >= 0 s",
+                             smoothing)
+    if heading == "velocity" or smoothing == 0:
+        return None
+    # the mean track on a uniform grid fine against T (21 samples per boxcar), read at the knots
+    duration = float(times[-1])
+    interval = min(smoothing / 21.0, duration)
+    grid = np.linspace(0.0, duration, int(math.ceil(duration / interval)) + 1)
+    mean = mean_track_velocity(spline(grid, 1), grid[1] - grid[0], smoothing)
+    horizontal = np.hypot(mean[:, 0], mean[:, 1])
+    moving = horizontal > 1e-6 * max(float(np.linalg.norm(mean, axis=1).max()), 1e-300)
+    if not np.any(moving):  # a vertical or still track: no horizontal direction anywhere
+        warnings.warn(VERTICAL_WARNING, MitsarWarning, stacklevel=3)
+        return np.zeros((len(times), 3))
+    angle = np.unwrap(np.arctan2(mean[moving, 1], mean[moving, 0]))
+    # where the mean track has no horizontal motion, the heading is held from its neighbours
+    held = np.interp(grid, grid[moving], angle)
+    return np.column_stack([np.interp(times, grid, held), np.zeros((len(times), 2))])
+
+
 @dataclass(frozen=True)
 class Trajectory:
     """A platform path over ``[0, duration]`` seconds.
@@ -54,7 +98,8 @@ class Trajectory:
         Knot positions [m] and velocities [m/s].
     attitude : ndarray, shape (n, 3) or None
         Heading, pitch, roll [rad] at the knots; ``None`` means velocity-aligned flight
-        (heading along the horizontal velocity, zero pitch and roll).
+        (heading along the horizontal velocity, zero pitch and roll): linear and waypoint
+        tracks, and navigation data read with ``heading="velocity"``.
     """
 
     kind: Literal["linear", "waypoints", "navigation", "flight"]
@@ -124,7 +169,9 @@ class Trajectory:
     @classmethod
     def navigation(cls, times: ArrayLike, positions: ArrayLike,
                    velocities: ArrayLike | None = None,
-                   attitude_deg: ArrayLike | None = None) -> Trajectory:
+                   attitude_deg: ArrayLike | None = None, *,
+                   heading: str | ArrayLike = "mean",
+                   heading_smoothing: float = MEAN_TRACK_TIME) -> Trajectory:
         """Sampled navigation data, interpolated by cubic Hermite splines.
 
         Parameters
@@ -136,7 +183,26 @@ class Trajectory:
         velocities : array_like, shape (n, 3), optional
             Velocities [m/s]; estimated by a cubic spline when omitted.
         attitude_deg : array_like, shape (n, 3), optional
-            Heading, pitch, roll [deg]; velocity-aligned when omitted.
+            Heading, pitch, roll [deg]. When omitted, level flight with the heading chosen by
+            ``heading``.
+        heading : {"mean", "velocity"} or array_like, shape (n,)
+            Heading of data without attitude (docs/navigation.md, "Heading without attitude
+            data"). ``"mean"`` (default): along the horizontal **mean track**, the velocity
+            averaged over three passes of a boxcar of ``heading_smoothing`` seconds
+            (:func:`mitsar.model.geometry.aperture.mean_track_velocity`), as a multirotor
+            holds its heading along its path while its position loop corrects a cross-track
+            wander (a 3 cm, 0.8 s wander at 0.5 m/s swings the velocity by +-25 deg, this
+            heading by 0.15 deg); evaluated at the knots and interpolated linearly between them.
+            ``"velocity"``: along the instantaneous horizontal velocity (a fixed-wing platform,
+            or mitsar before 2026-11). An array: the heading [deg] at every knot.
+        heading_smoothing : float
+            Boxcar length T [s] of the mean track (>= 0).
+
+        Raises
+        ------
+        ParameterError
+            Bad samples; an unknown ``heading``; a heading array together with
+            ``attitude_deg``.
         """
         times = np.asarray(times, dtype=float)
         positions = np.asarray(positions, dtype=float)
@@ -156,14 +222,21 @@ class Trajectory:
         if velocities.shape != positions.shape or not np.all(np.isfinite(velocities)):
             raise ParameterError("Trajectory", "velocities",
                                  f"finite values of shape {positions.shape}", velocities.shape)
+        spline = CubicHermiteSpline(times, positions, velocities, axis=0)
         attitude = None
         if attitude_deg is not None:
+            if not (isinstance(heading, str) and heading == "mean"):
+                raise ParameterError("Trajectory", "heading", "the default ('mean') when "
+                                     "attitude_deg is given (the attitude holds the heading)",
+                                     heading if isinstance(heading, str) else "an array")
             attitude = np.radians(np.asarray(attitude_deg, dtype=float))
             if attitude.shape != positions.shape or not np.all(np.isfinite(attitude)):
                 raise ParameterError("Trajectory", "attitude_deg",
                                      f"finite values of shape {positions.shape}", attitude.shape)
+        else:
+            attitude = _default_attitude(times, spline, heading, heading_smoothing)
+        if attitude is not None:
             attitude[:, 0] = np.unwrap(attitude[:, 0])
-        spline = CubicHermiteSpline(times, positions, velocities, axis=0)
         return cls("navigation", times, positions, velocities, attitude, spline)
 
     @classmethod
