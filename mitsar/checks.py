@@ -17,12 +17,18 @@ from numpy.typing import NDArray
 
 from mitsar.errors import ParameterError
 
-__all__ = ["MAX_LEVEL_DB", "MAX_RCS", "MAX_SEED", "KnownFields", "boolean", "finite", "integer",
-           "is_real", "level_db", "positive", "rcs", "seed", "vector"]
+__all__ = ["MAX_LENGTH", "MAX_LEVEL_DB", "MAX_RCS", "MAX_SEED", "KnownFields", "boolean",
+           "finite", "integer", "is_real", "level_db", "positive", "rcs", "seed", "vector"]
 
 MAX_LEVEL_DB = 100.0
 """Highest RCS or sigma0 level accepted [dB re 1 m² or m²/m²]: 1e10 m², far above any indoor
 target; 10^(level/10) overflows a float near 3080 dB (docs/reliability.md §1)."""
+
+
+MAX_LENGTH = 1.0e4
+"""Largest length or coordinate accepted in an experiment or a trace request [m]: 10 km, far
+beyond any indoor scene, flight or the receiver's ``max_range`` (tens of metres), and far below
+where squares of positions overflow (1e300 m passed unchecked: docs/reliability.md §1)."""
 
 
 def is_real(value: object) -> bool:

@@ -391,6 +391,9 @@ duration = 6.0
     path.write_text(text.replace("required_resolution = 0.15", "required_resolution = [0.1]"))
     with pytest.raises(ParameterError, match="required_resolution"):
         load_ambiguity_experiment(path)
+    path.write_bytes(bytes(range(128, 256)))  # not text
+    with pytest.raises(ParameterError, match="UTF-8"):
+        load_ambiguity_experiment(path)
     surface = text[text.index("[[surfaces]]"):text.index("[output]")]
     path.write_text(text.replace(surface, surface + surface))  # two surfaces named "floor"
     with pytest.raises(ParameterError, match="surfaces.*name.*floor"):

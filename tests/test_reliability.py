@@ -257,3 +257,17 @@ def test_montecarlo_with_the_target_outside_the_image_fails(tmp_path: Path,
                    "-o", str(tmp_path / "mc")])
     assert status == 2
     assert "outside the image" in capsys.readouterr().err
+
+
+def test_absurd_lengths_are_refused_at_load_whatever_the_command() -> None:
+    """Issue 27: ``[metrics] target = [1e300, 8, 0]`` and ``simulation.slab_width = 1e300``
+    passed ``mitsar simulate``; every length or position [m] of an experiment is now bounded
+    at load (mitsar.checks.MAX_LENGTH, 10 km), and the trace request refuses the same."""
+    for table, key, value in (("metrics", "target", [1e300, 8.0, 0.0]),
+                              ("simulation", "slab_width", 1e300),
+                              ("trajectory", "start", [1e5, 1.4, 4.5])):
+        with pytest.raises(ParameterError, match=f"{table}.{key}.*10000 m"):
+            experiment_from_dict(_experiment(**{table: {key: value}}))
+    with pytest.raises(ParameterError, match="slab_width"):
+        mitsar.TraceOptions(slab_width=1e300).resolve("test")
+    experiment_from_dict(_experiment(metrics={"target": [15.0, 8.0, 0.0]}))  # still fine

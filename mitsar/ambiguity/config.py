@@ -106,6 +106,8 @@ def load_ambiguity_experiment(path: str | os.PathLike) -> dict[str, Any]:
         data = tomllib.loads(path.read_text(encoding="utf-8"))
     except tomllib.TOMLDecodeError as error:
         raise ParameterError(where, "file", "valid TOML", str(error)) from error
+    except UnicodeDecodeError as error:
+        raise ParameterError(where, "file", "a text (UTF-8) TOML file", str(error)) from error
     return ambiguity_from_dict(data, where, path.resolve().parent, path.stem)
 
 

@@ -16,6 +16,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
+from mitsar.checks import MAX_LENGTH
 from mitsar.errors import ParameterError
 
 __all__ = ["MISSING", "Table", "prefixed"]
@@ -99,8 +100,16 @@ class Table:
         value = float(value)
         if not math.isfinite(value) or not _in_bounds(value, gt, ge, lt, le):
             raise self.error(name, expected, value)
+        self._check_length(name, expected, (value,), unit)
         self.out[name] = value
         return value
+
+    def _check_length(self, name: str, expected: str, values: Any, unit: str) -> None:
+        """Refuse a length or coordinate [m] beyond :data:`mitsar.checks.MAX_LENGTH`."""
+        if unit == "m" and any(abs(v) > MAX_LENGTH for v in values):
+            raise self.error(name, f"{expected}, within ±{MAX_LENGTH:g} m (indoor scenes: "
+                             "lengths and positions of metres)", list(values) if len(values)
+                             > 1 else values[0])
 
     def integer(self, name: str, default: Any = MISSING, ge: int | None = None) -> int | None:
         """An integer, with an optional lower bound."""
@@ -149,6 +158,7 @@ class Table:
         vec = _as_vector(value, length)
         if vec is None:
             raise self.error(name, expected, _found_array(value))
+        self._check_length(name, expected, vec, unit)
         self.out[name] = list(vec)
         return vec
 
@@ -168,6 +178,7 @@ class Table:
             if vec is None:
                 raise self.error(f"{name}[{i}]", f"an array of {length} numbers"
                                  + (f" [{unit}]" if unit else ""), _found_array(item))
+            self._check_length(f"{name}[{i}]", expected, vec, unit)
             out.append(vec)
         self.out[name] = [list(v) for v in out]
         return out
@@ -182,6 +193,7 @@ class Table:
         vec = _as_vector(value, len(value)) if isinstance(value, list) else None
         if vec is None or len(vec) < min_count:
             raise self.error(name, expected, _found_array(value))
+        self._check_length(name, expected, vec, unit)
         self.out[name] = list(vec)
         return list(vec)
 

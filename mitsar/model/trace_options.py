@@ -273,6 +273,10 @@ class TraceOptions:
                             "None or a finite number > 0")
         for name in ("scatterers_per_cell", "ray_cover", "slab_width"):
             checks.positive(where, name, getattr(self, name))
+        for name in ("slab_width", "visibility_feature"):  # lengths [m]
+            if abs(getattr(self, name)) > checks.MAX_LENGTH:
+                raise ParameterError(where, name, f"a length within {checks.MAX_LENGTH:g} m",
+                                     getattr(self, name))
         integer("max_depth", 1, MAX_DEPTH)
         integer("chunk_lanes", 1, MAX_LANES - 1)
         integer("rays", 1, MULTIPATH_CHUNK_LANES)
