@@ -201,3 +201,26 @@ def test_traced_channels_trace_their_own_slots():
     hist = mitsar.trace(radar, track, look, "point_target", channel=3)
     assert hist.attrs["sweep_stride"] == 2
     assert np.array_equal(hist["sweep"].values, traced["sweep"].values[1::2])
+
+
+def test_toml_phase_centres_as_arrays_or_tables_are_the_same_radar():
+    """``[radar] receivers = [[...], ...]`` or ``[[radar.receivers]]`` tables with
+    ``position`` (issue 22's TOML spelling) give the same radar; an unknown key of an element
+    is refused naming it."""
+    from mitsar.experiment.loading import experiment_from_dict
+
+    base = {"trajectory": {"start": [14.9, 1.4, 4.5], "velocity": [0.5, 0.0, 0.0],
+                           "duration": 0.2},
+            "look": {"off_nadir_deg": 55.71}, "targets": [{"position": [15.0, 8.0, 0.0]}]}
+    transmitters, receivers = [(0.0, 0.0, 0.0), (0.0, 0.0, 0.01)], [(0.0, 0.0, 0.0),
+                                                                     (0.0, 0.0, 0.05)]
+    arrays = experiment_from_dict({**base, "radar": {
+        "transmitters": [list(p) for p in transmitters],
+        "receivers": [list(p) for p in receivers]}}).radar
+    tables = experiment_from_dict({**base, "radar": {
+        "transmitters": [{"position": list(p)} for p in transmitters],
+        "receivers": [{"position": list(p)} for p in receivers]}}).radar
+    assert arrays == tables and tables.channel_count == 4
+    with pytest.raises(ParameterError, match=r"radar.receivers\[1\].gain"):
+        experiment_from_dict({**base, "radar": {"receivers": [
+            {"position": [0, 0, 0]}, {"position": [0, 0, 0.05], "gain": 2}]}})

@@ -68,12 +68,13 @@ __all__ = [
 
 def parse_radar(t: Table) -> Radar:
     """``[radar]``: every :class:`~mitsar.model.radar.Radar` field, defaults from Table 1;
-    ``receivers`` / ``transmitters`` as arrays of body-frame 3-vectors [m] and ``ping_pong``
-    for a multi-channel (interferometric) radar."""
+    ``receivers`` / ``transmitters`` as arrays of body-frame 3-vectors [m] or as arrays of
+    tables (``[[radar.receivers]]`` with ``position = [x, y, z]``), and ``ping_pong`` for a
+    multi-channel (interferometric) radar."""
     kwargs: dict[str, Any] = {}
     for f in dataclasses.fields(Radar):
         if f.name in ("receivers", "transmitters"):  # phase centres (docs/interferometry.md)
-            value = t.vectors(f.name, 3, default=None, unit="m, body frame")
+            value = _phase_centres(t, f.name)
         elif f.name == "ping_pong":
             value = t.boolean(f.name, False) or None
         elif f.name.endswith("_db"):
@@ -87,6 +88,19 @@ def parse_radar(t: Table) -> Radar:
     t.finish()
     with prefixed(t):
         return Radar(**kwargs)
+
+
+def _phase_centres(t: Table, name: str) -> list[tuple[float, ...]] | None:
+    """``[radar] receivers = [[x, y, z], ...]`` or ``[[radar.receivers]]`` tables, each with
+    ``position = [x, y, z]`` (body frame [m]); None when absent."""
+    value = t.data.get(name)
+    if isinstance(value, list) and value and all(isinstance(item, dict) for item in value):
+        centres = []
+        for element in t.tables(name):
+            centres.append(element.vector("position", 3, unit="m, body frame"))
+            element.finish()
+        return centres
+    return t.vectors(name, 3, default=None, unit="m, body frame")
 
 
 _RADAR_UNITS = {"carrier_frequency": "Hz", "bandwidth": "Hz", "sampling_frequency": "Hz",
