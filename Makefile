@@ -5,7 +5,7 @@ VENV ?= .venv
 PY := $(VENV)/bin/python
 PYTEST_ARGS ?=
 
-.PHONY: setup test demo examples lint bench clean fuzz
+.PHONY: setup test demo examples lint bench clean fuzz wheel
 
 setup:
 	bash scripts/setup.sh $(VENV)
@@ -40,6 +40,12 @@ examples: setup
 	$(PY) examples/ablations.py -o demo-output/examples/ablations --overwrite
 	$(PY) examples/real_flight.py -o demo-output/examples/real_flight --overwrite
 
+# The sdist and the wheel in dist/ (examples and scenes inside). `make test` checks them:
+# tests/test_wheel.py builds both in a temporary folder, installs the wheel in a fresh venv
+# there and runs the CLI (every --help, demo, run, preview) from outside the checkout.
+wheel: setup
+	$(PY) -m build --no-isolation --outdir dist .
+
 # The fuzz campaign of the input checks (docs/reliability.md): >= 1,000 bad inputs over every
 # family, the table of verdicts; fails on a traceback, a silent acceptance, a hang or a crash.
 fuzz: setup
@@ -57,4 +63,4 @@ bench: setup
 	MITSAR_SIONNA_PYTHON=$(CURDIR)/.venv-sionna/bin/python $(PY) benchmarks/run_all.py
 
 clean:
-	rm -rf demo-output .pytest_cache build *.egg-info
+	rm -rf demo-output .pytest_cache build dist *.egg-info

@@ -10,6 +10,7 @@ from typing import Any
 
 from mitsar.cli.common import log
 from mitsar.cli.stages import format_metrics
+from mitsar.errors import ParameterError
 from mitsar.experiment.examples import example_path, examples_dir
 from mitsar.experiment.loading import load_experiment, read_toml
 from mitsar.experiment.paper import PAPER_TABLES
@@ -37,7 +38,10 @@ DEMO_FILES = {
 
 def demo_examples() -> list[str]:
     """Bundled experiments the demo can run: point targets to measure in one acquisition (not
-    ambiguity files, not ``[[passes]]``: ``mitsar run`` runs those)."""
+    ambiguity files, not ``[[passes]]``: ``mitsar run`` runs those).
+
+    Read from the example files, so only when ``mitsar demo`` runs (the argument parser lists
+    no data files: ``mitsar --help`` works without them)."""
     names = []
     for path in sorted(examples_dir().glob("*.toml")):
         document = read_toml(path)
@@ -56,6 +60,11 @@ def cmd_demo(args: argparse.Namespace) -> int:
     if out.is_dir():
         for path in paths.values():
             check_writable(path, args.overwrite)
+    runnable = demo_examples()
+    if args.example not in runnable:
+        raise ParameterError("mitsar demo", "--example", "a bundled example with a point target "
+                             f"in one acquisition (one of {runnable}; 'mitsar run' runs the "
+                             "others)", args.example)
     experiment = load_experiment(example_path(args.example))
     out.mkdir(parents=True, exist_ok=True)
     results = run_demo(experiment, paths, overwrite=args.overwrite, progress=not args.quiet,
@@ -76,10 +85,11 @@ def run_demo(experiment: Any, paths: dict[str, Path], overwrite: bool = False,
     """
     algorithm = experiment.focus.algorithm
     run = RunFolder(paths["raw"].parent, overwrite)
-    files = PipelineFiles(raw=str(paths["raw"]), range_figure=str(paths["range_figure"]),
-                          background_figure=str(paths["histogram_figure"]),
-                          image=str(paths["image"]), image_figure=str(paths["image_figure"]),
-                          cuts_figure=str(paths["cuts_figure"]))
+    # absolute: RunFolder takes relative names relative to its folder ('-o out' wrote out/out/)
+    where = {key: str(Path(path).resolve()) for key, path in paths.items()}
+    files = PipelineFiles(raw=where["raw"], range_figure=where["range_figure"],
+                          background_figure=where["histogram_figure"], image=where["image"],
+                          image_figure=where["image_figure"], cuts_figure=where["cuts_figure"])
     result = run_pipeline(run, experiment, [algorithm], progress=progress, strict=True,
                           files=files, log=log)
     start = time.perf_counter()

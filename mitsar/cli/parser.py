@@ -7,7 +7,7 @@ from typing import Any
 
 from mitsar.cli.ambiguity import cmd_ambiguity
 from mitsar.cli.campaigns import cmd_montecarlo, cmd_sweep
-from mitsar.cli.demo import cmd_demo, demo_examples
+from mitsar.cli.demo import cmd_demo
 from mitsar.cli.interferometry import cmd_interferogram
 from mitsar.cli.report import cmd_report, cmd_run
 from mitsar.cli.scene import cmd_preview, cmd_rays
@@ -193,8 +193,10 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_argument("-o", "--output", default="mitsar-demo", metavar="DIR",
                      help="output folder")
     sub.add_argument("--overwrite", action="store_true", help="replace existing outputs")
-    sub.add_argument("--example", default="paper_point_target", choices=demo_examples(),
-                     help="bundled example with a point target to run")
+    # no choices=: listing the examples would read data files while the parser is built
+    sub.add_argument("--example", default="paper_point_target", metavar="NAME",
+                     help="bundled example with a point target to run (an examples/*.toml "
+                     "name, e.g. scene_point_target; a wrong name lists them)")
     sub.set_defaults(func=cmd_demo)
 
     sub = _folder_command(commands, common, "montecarlo", cmd_montecarlo,
