@@ -122,14 +122,6 @@ def test_points_grid_values_match_bpa(straight):
     np.testing.assert_allclose(image, reference, atol=2e-2 * np.abs(reference).max())
 
 
-def test_narrow_band_on_a_curved_track_is_refused(curved):
-    """A band narrower than the beam on a curved track is a per-pixel, per-sweep cut that polar
-    sub-aperture images cannot hold (measured -7 dB from BPA): refused, naming the parameter."""
-    grid = PointsGrid(np.array([TARGET]))
-    with pytest.raises(mitsar.ParameterError, match="'azimuth_resolution'"):
-        mitsar.focus(curved, algorithm="ffbp", grid=grid, azimuth_resolution=0.1)
-
-
 def test_bad_options_are_named(straight):
     with pytest.raises(mitsar.ParameterError, match="algorithm_options"):
         mitsar.focus(straight, algorithm="ffbp", grid=SLANT, azimuth_resolution=0.1,

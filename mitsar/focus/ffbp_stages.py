@@ -17,6 +17,7 @@ sub-aperture's frame (:func:`polar_node`, float64). Kernels:
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from types import ModuleType
 from typing import Any
@@ -31,12 +32,13 @@ from mitsar.focus.backprojection import (
     derotate,
     interpolate,
     jit_array,
+    pixel_pulse,
     pulse_loop,
 )
 from mitsar.model.ops import NUMPY_OPS, ArrayOps
 
-__all__ = ["LANE_NODES", "Stage", "first_stage", "merge_nodes", "merge_points", "node_frames",
-           "polar_node", "to_numpy"]
+__all__ = ["LANE_NODES", "Stage", "first_stage", "merge_band", "merge_nodes", "merge_points",
+           "node_frames", "polar_node", "to_numpy"]
 
 LANE_NODES = 4
 """First-stage nodes per kernel lane (consecutive in angle; one sweep gather for all)."""
@@ -64,6 +66,7 @@ class Stage:
     rho_step: float
     alpha_step: float
     shape: tuple[int, int]   # (N_rho, N_alpha)
+    length: NDArray | None = None  # (J,) chord from first to last sweep [m]
     values: Any = None       # UInt64 (J N_rho N_alpha,): demodulated images, (re, im) float32
     totals: Any = None       # Float32 (J N_rho N_alpha,): sums of the sweeps' weights
 
@@ -275,6 +278,249 @@ def merge_points(stage: Stage, points: NDArray, first_child: NDArray, end_child:
     return real, imag, total
 
 
+def merge_band(stages: list[Stage], points: NDArray, frame: tuple[NDArray, NDArray],
+               sweep_range: tuple[NDArray, NDArray], tables: tuple, half_width: float,
+               window: NDArray, wavenumber: float) -> tuple[Any, Any, Any]:
+    """Each point's sum over the sweeps of its own processed band (aspect-angle window).
+
+    The band of point x is the sweeps k with ``|g_k| <= h``, ``g_k = d . l_k - u`` (its
+    aspect frame ``(d, u)``, :func:`mitsar.focus.aperture.aspect_frames`; ``l_k`` the unit
+    line of sight from sweep k to x), exact BPA's hard cut per pixel and sweep. Along a pass
+    ``g_k`` falls monotonically (the line of sight turns one way), so the band is one run of
+    sweeps ``[k_1, k_2)``, found by bisection inside ``sweep_range`` (float64). The run is
+    summed from pieces that are whole sub-apertures of any stage (the sub-aperture images,
+    interpolated at x and re-phased as in :func:`merge_points`; the largest aligned
+    sub-aperture that fits, then the next, as in a segment tree: at most ``2 (factor - 1)``
+    per stage) between the first-stage boundaries ``b_1 = ceil(k_1 / n_0) n_0`` and
+    ``b_2 = floor(k_2 / n_0) n_0``, and at its two ends (``[k_1 - 1, b_1)``, ``[b_2, k_2 + 1)``)
+    from single sweeps by BPA's own per-pulse sum (:func:`pixel_pulse
+    <mitsar.focus.backprojection.pixel_pulse>`, which applies the window and its float32
+    test of ``|g_k| <= h`` itself, so the edges are BPA's to the sweep). With a window other
+    than rect each piece's sweeps are weighted by :func:`_windowed_piece` (one more read of
+    its image per harmonic of the window).
+
+    Parameters
+    ----------
+    stages : list of Stage
+        Every stage, first to last, with its images (``values``).
+    points : ndarray, shape (P, 3)
+        Points [m] in the stages' local frame.
+    frame : (ndarray (P, 3), ndarray (P,))
+        Aspect frame ``(d, u)`` of every point.
+    sweep_range : (ndarray (P,), ndarray (P,))
+        First and end sweep that can hold the band (a safe bound,
+        :func:`mitsar.focus.bpa.curved_sweep_range`).
+    tables : tuple
+        :func:`mitsar.focus.backprojection.kernel_tables` (sweep positions in the local frame).
+    half_width : float
+        Band half width h in direction sine.
+    window : ndarray
+        Cosine-series coefficients of the azimuth window.
+    wavenumber : float
+        Two-way carrier wavenumber ``2 f_c / c`` [cycles/m].
+
+    Returns
+    -------
+    real, imag, total : Dr.Jit arrays, launched
+        The BPA sum of every point and the sum of its sweeps' window weights.
+    """
+    constants, sweep_arrays, pairs = tables
+    jit = namespace_of(pairs)
+    Float32, Float64, UInt32 = jit.Float32, jit.Float64, jit.UInt32
+    sweeps = int(stages[0].end[-1])
+    count = len(points)
+    coordinates = [jit_array(Float64, points[:, i], np.float64) for i in range(3)]
+    direction = [jit_array(Float32, frame[0][:, i], np.float32) for i in range(3)]
+    centre = jit_array(Float32, frame[1], np.float32)
+    low = jit_array(UInt32, sweep_range[0], np.uint32)
+    high = jit_array(UInt32, np.maximum(sweep_range[1], sweep_range[0]), np.uint32)
+    coefficients = np.zeros(4)
+    coefficients[: len(window)] = window
+    edge_constants = {**constants, "half_width": dr.opaque(Float32, half_width),
+                      "coefficients": [float(c) for c in coefficients]}
+
+    # The band [k1, k2): bisection on g (falling along the pass), float64.
+    d64 = [Float64(v) for v in direction]
+
+    def offset(k: Any, active: Any) -> Any:
+        ox, oy, oz = (coordinates[i] - dr.gather(Float64, sweep_arrays[i], k, active)
+                      for i in range(3))
+        distance = dr.sqrt(ox * ox + oy * oy + oz * oz)
+        return (ox * d64[0] + oy * d64[1] + oz * d64[2]) / distance - Float64(centre)
+
+    def bisect(threshold: float, strict: bool) -> Any:
+        lo, hi = UInt32(low), UInt32(high)
+        for _ in range(max(1, int(sweeps).bit_length())):
+            active = lo < hi
+            mid = (lo + hi) >> 1
+            g = offset(dr.select(active, mid, 0), active)
+            left = (g < threshold) if strict else (g <= threshold)
+            hi = dr.select(active & left, mid, hi)
+            lo = dr.select(active & ~left, mid + 1, lo)
+        return lo
+
+    k1 = bisect(half_width, strict=False)
+    k2 = dr.maximum(bisect(-half_width, strict=True), k1)
+    size0 = int(stages[0].end[0] - stages[0].first[0])
+    b1 = (k1 + (size0 - 1)) // size0 * size0
+    b2 = k2 // size0 * size0
+    empty = b2 <= b1
+    stop = dr.minimum(k2 + 1, sweeps)
+    b1 = dr.select(empty, stop, b1)
+    b2 = dr.select(empty, stop, b2)
+
+    # Pieces: whole sub-apertures of any stage between b1 and b2.
+    sizes = [int(s.end[0] - s.first[0]) for s in stages]
+    counts = [len(s.first) for s in stages]
+    nodes = [len(s.first) * s.shape[0] * s.shape[1] for s in stages]
+    node_offset = np.concatenate([[0], np.cumsum(nodes)[:-1]]).astype(np.int64)
+    sub_offset = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
+    node_base = np.concatenate([offset + np.arange(len(s.first)) * (s.shape[0] * s.shape[1])
+                                for offset, s in zip(node_offset, stages, strict=True)])
+    child = ([jit_array(Float32, np.concatenate([s.centre[:, i] for s in stages]), np.float32)
+              for i in range(3)]
+             + [jit_array(Float32, np.concatenate([s.axis[:, i] for s in stages]), np.float32)
+                for i in range(3)]
+             + [jit_array(Float32, np.concatenate([s.rho0 for s in stages]), np.float32),
+                jit_array(Float32, np.concatenate([s.alpha0 for s in stages]), np.float32),
+                jit_array(Float32, np.concatenate([_sweep_spacing(s) for s in stages]),
+                          np.float32)])
+    bases = jit_array(UInt32, node_base, np.uint32)
+    level_arrays = {
+        "alpha_step": jit_array(Float32, [s.alpha_step for s in stages], np.float32),
+        "n_rho": jit_array(UInt32, [s.shape[0] for s in stages], np.uint32),
+        "n_alpha": jit_array(UInt32, [s.shape[1] for s in stages], np.uint32),
+    }
+    rows = dr.concat([_tap_rows(s.values) for s in stages]) if len(stages) > 1 else _tap_rows(
+        stages[0].values)
+    dr.eval(rows)
+    point = [Float32(v) for v in coordinates]
+    zero = dr.zeros(Float32, count)
+    point_data = point + [zero, zero, zero]
+    rho_step = dr.opaque(Float32, stages[0].rho_step)
+    wave = dr.opaque(Float32, wavenumber)
+    n_sweeps = dr.opaque(UInt32, sweeps)
+    rect = not np.any(coefficients[1:])
+    harmonics = [(m, float(coefficients[m])) for m in range(len(coefficients))]
+    wavelength = 2.0 / wavenumber
+
+    def piece_condition(cursor: Any, *_: Any) -> Any:
+        return cursor < b2
+
+    def piece_body(cursor: Any, acc_real: Any, acc_imag: Any, acc_total: Any) -> tuple:
+        # The largest stage whose sub-aperture starts at the cursor and ends by b2 (sizes
+        # are Python constants: no division by a gathered, possibly masked, value).
+        level, piece, size = UInt32(0), cursor // sizes[0], UInt32(sizes[0])
+        for index in range(1, len(stages)):
+            fits = ((cursor % sizes[index]) == 0) & (
+                dr.minimum(cursor + sizes[index], n_sweeps) <= b2)
+            level = dr.select(fits, index, level)
+            piece = dr.select(fits, int(sub_offset[index]) + cursor // sizes[index], piece)
+            size = dr.select(fits, sizes[index], size)
+        piece_end = dr.minimum(cursor + size, n_sweeps)
+        scalars = {"rho_step": rho_step, "wavenumber": wave,
+                   "alpha_step": dr.gather(Float32, level_arrays["alpha_step"], level),
+                   "n_rho": dr.gather(UInt32, level_arrays["n_rho"], level),
+                   "n_alpha": dr.gather(UInt32, level_arrays["n_alpha"], level)}
+        base = dr.gather(UInt32, bases, piece)
+        part_real, part_imag, _ = _merge_lanes(piece, point_data, child[:8], rows, None,
+                                               scalars, False, base)
+        weight = Float32(piece_end - cursor)
+        if not rect:
+            part_real, part_imag, weight = _windowed_piece(
+                piece, point_data, child, rows, scalars, base, (part_real, part_imag),
+                weight, direction, centre, harmonics, half_width, wavelength)
+        return piece_end, acc_real + part_real, acc_imag + part_imag, acc_total + weight
+
+    state = (UInt32(b1), *[dr.zeros(Float32, count) for _ in range(3)])
+    real, imag, total = dr.while_loop(state, piece_condition, piece_body)[1:]
+    distance = dr.sqrt(sum(v * v for v in coordinates))
+    turns = carrier_turns(distance, dr.opaque(Float64, wavenumber), dr.floor)
+    sin_phase, cos_phase = dr.sincos(Float32(2 * np.pi) * Float32(turns))
+    real, imag = derotate(real, imag, sin_phase, cos_phase)
+
+    # Edges: single sweeps [k1 - 1, b1) and [b2, k2 + 1), BPA's per-pulse sum and window test.
+    start = dr.select(k1 > 0, k1 - 1, k1)
+    left = b1 - dr.minimum(start, b1)
+    length = left + (stop - dr.minimum(b2, stop))
+    pixel = (*coordinates, UInt32(0), dr.opaque(UInt32, sweeps), *direction, centre)
+
+    def edge_condition(t: Any, *_: Any) -> Any:
+        return t < length
+
+    def edge_body(t: Any, acc_real: Any, acc_imag: Any, acc_total: Any) -> tuple:
+        k = dr.select(t < left, start + t, b2 + (t - left))
+        sweep = tuple(dr.gather(type(a), a, k) for a in sweep_arrays)
+        part = pixel_pulse(k, pixel, sweep, pairs, edge_constants)
+        return t + 1, acc_real + part[0], acc_imag + part[1], acc_total + part[2]
+
+    state = (UInt32(0), real, imag, total)
+    real, imag, total = dr.while_loop(state, edge_condition, edge_body)[1:]
+    dr.eval(real, imag, total)  # launched: the caller may work while it runs
+    return real, imag, total
+
+
+def _windowed_piece(piece: Any, point_data: list, child: list, rows: Any, scalars: dict,
+                    base: Any, plain: tuple[Any, Any], count: Any, direction: list,
+                    centre: Any, harmonics: list, half_width: float, wavelength: float
+                    ) -> tuple[Any, Any, Any]:
+    """A whole sub-aperture's image at the point, each sweep weighted by the window.
+
+    The window is a cosine series in the aspect offset, ``W(g) = sum_m a_m cos(pi m g / h)``
+    (:func:`mitsar.focus.windows.cosine_series` at ``g / 2h``). Across a sub-aperture ``g``
+    is linear in the sweep's offset s along the axis, ``g = g_c + gamma s`` with ``gamma =
+    (-d.a + (d.l)(a.l)) / rho`` (l, rho: line of sight and range from the centre to the
+    point), and the demodulated polar image holds sweep s with the phase ``2 pi (2 /
+    lambda) s alpha`` (step 3 of :mod:`mitsar.focus.ffbp`): the weight ``exp(j pi m g / h)``
+    of every sweep is therefore the image read at ``alpha + m gamma lambda / (4 h)`` times
+    ``exp(j pi m g_c / h)``. Each harmonic costs one more interpolation; the sum of the
+    weights is ``sum_m a_m cos(pi m g_c / h) D_m`` with the Dirichlet kernel ``D_m`` of the
+    n sweeps' phase steps.
+    """
+    jit = namespace_of(piece)
+    Float32 = jit.Float32
+    x, y, z = point_data[:3]
+    cx, cy, cz, ax, ay, az = (dr.gather(Float32, c, piece) for c in child[:6])
+    ox, oy, oz = x - cx, y - cy, z - cz
+    rho = dr.sqrt(ox * ox + oy * oy + oz * oz)
+    lx, ly, lz = ox / rho, oy / rho, oz / rho
+    along_d = direction[0] * lx + direction[1] * ly + direction[2] * lz
+    along_a = ax * lx + ay * ly + az * lz
+    g_centre = along_d - centre
+    gamma = (-(direction[0] * ax + direction[1] * ay + direction[2] * az)
+             + along_d * along_a) / rho
+    step = dr.opaque(Float32, math.pi / half_width)
+    real, imag = harmonics[0][1] * plain[0], harmonics[0][1] * plain[1]
+    # per-sweep phase step of harmonic 1 (sweeps evenly spaced along the chord)
+    spacing = dr.gather(Float32, child[8], piece)
+    theta = step * gamma * spacing
+    total = harmonics[0][1] * count
+    for m, a_m in harmonics[1:]:
+        if a_m == 0.0:
+            continue
+        sin_c, cos_c = dr.sincos(m * step * g_centre)
+        for sign in (1.0, -1.0):
+            shift = sign * m * gamma * dr.opaque(Float32, wavelength / (4 * half_width))
+            v_real, v_imag, _ = _merge_lanes(piece, point_data, child[:8], rows, None, scalars,
+                                             False, base, shift)
+            # times a_m / 2 exp(sign j pi m g_c / h)
+            rotated_real = v_real * cos_c - sign * v_imag * sin_c
+            rotated_imag = v_imag * cos_c + sign * v_real * sin_c
+            real += 0.5 * a_m * rotated_real
+            imag += 0.5 * a_m * rotated_imag
+        half = 0.5 * m * theta
+        small = dr.abs(dr.sin(half)) < 1e-6
+        dirichlet = dr.select(small, count, dr.sin(count * half)
+                              / dr.select(small, 1.0, dr.sin(half)))
+        total += a_m * cos_c * dirichlet
+    return real, imag, total
+
+
+def _sweep_spacing(stage: Stage) -> NDArray:
+    """Mean spacing [m] of every sub-aperture's sweeps along its axis (0 for one sweep)."""
+    return stage.length / np.maximum(stage.end - stage.first - 1, 1)
+
+
 def to_numpy(real: Any, imag: Any, total: Any) -> tuple[NDArray, NDArray]:
     """:func:`merge_points`' results as NumPy (complex values, totals); waits for them."""
     return np.asarray(real, dtype=float) + 1j * np.asarray(imag, dtype=float), np.asarray(
@@ -347,14 +593,23 @@ def _keys(t: Any) -> tuple[Any, Any, Any, Any]:
 
 
 def _merge_lanes(k: Any, point_data: list, child: list, values: Any, totals: Any,
-                 scalars: dict, with_totals: bool) -> tuple[Any, Any, Any]:
-    """Child k's re-phased image at the lane's point (steps 4-5 of :mod:`mitsar.focus.ffbp`)."""
+                 scalars: dict, with_totals: bool, node_base: Any = None,
+                 alpha_shift: Any = None) -> tuple[Any, Any, Any]:
+    """Child k's re-phased image at the lane's point (steps 4-5 of :mod:`mitsar.focus.ffbp`).
+
+    ``scalars`` may hold per-lane arrays (the grid of each lane's child, :func:`merge_band`);
+    ``node_base``: index of the child's first node in ``values`` (default ``k N_rho N_alpha``);
+    ``alpha_shift``: read the image that far off the point's direction cosine
+    (:func:`_windowed_piece`).
+    """
     jit = namespace_of(k)
     Array4u64, Float32, UInt32 = jit.Array4u64, jit.Float32, jit.UInt32
     x, y, z, rx, ry, rz = point_data
     cx_all, cy_all, cz_all, ax_all, ay_all, az_all, rho0_all, alpha0_all = child
     rho_step, alpha_step = scalars["rho_step"], scalars["alpha_step"]
     n_rho, n_alpha, wavenumber = scalars["n_rho"], scalars["n_alpha"], scalars["wavenumber"]
+    if node_base is None:
+        node_base = k * n_rho * n_alpha
     cx = dr.gather(Float32, cx_all, k)
     cy = dr.gather(Float32, cy_all, k)
     cz = dr.gather(Float32, cz_all, k)
@@ -362,6 +617,8 @@ def _merge_lanes(k: Any, point_data: list, child: list, values: Any, totals: Any
     rho = dr.sqrt(ox * ox + oy * oy + oz * oz)
     alpha = (ox * dr.gather(Float32, ax_all, k) + oy * dr.gather(Float32, ay_all, k)
              + oz * dr.gather(Float32, az_all, k)) / rho
+    if alpha_shift is not None:
+        alpha = alpha + alpha_shift
     u = (rho - dr.gather(Float32, rho0_all, k)) / rho_step
     v = (alpha - dr.gather(Float32, alpha0_all, k)) / alpha_step
     iu = dr.floor(u)
@@ -375,7 +632,7 @@ def _merge_lanes(k: Any, point_data: list, child: list, values: Any, totals: Any
              & (iv <= Float32(n_alpha - 3)))
     iu = dr.clip(iu, 1.0, Float32(n_rho - 3))
     iv = dr.clip(iv, 1.0, Float32(n_alpha - 3))
-    base = k * n_rho * n_alpha + (UInt32(iu) - 1) * n_alpha + UInt32(iv) - 1
+    base = node_base + (UInt32(iu) - 1) * n_alpha + UInt32(iv) - 1
     child_total = Float32(0.0)
     if with_totals:
         # Sweep weights: bilinear (they vary on the scale of the window, not of the phase).
