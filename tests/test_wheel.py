@@ -77,21 +77,23 @@ def venv(dist, tmp_path_factory) -> dict:
     environment variables and working folder to run it outside the checkout."""
     home = tmp_path_factory.mktemp("wheel-venv")
     prefix = home / "venv"
+    clean = {key: value for key, value in os.environ.items()
+             if key not in ("PYTHONPATH", "PYTHONHOME", "VIRTUAL_ENV", "MITSAR_EXAMPLES")}
     start = time.perf_counter()
-    _run([sys.executable, "-m", "venv", "--without-pip", str(prefix)], cwd=home)
+    _run([sys.executable, "-m", "venv", "--without-pip", str(prefix)], cwd=home, env=clean)
     python = prefix / "bin" / "python"
     # the wheel first, alone (pip must not see the checkout's editable mitsar)
     _run([sys.executable, "-m", "pip", "--python", str(python), "install", "--no-deps",
-          "--no-index", "--no-compile", "-q", str(dist["wheel"])], cwd=home)
+          "--no-index", "--no-compile", "-q", str(dist["wheel"])], cwd=home, env=clean)
     purelib = Path(_run([str(python), "-c", "import sysconfig; print(sysconfig.get_paths()"
-                         "['purelib'])"], cwd=home).stdout.strip())
+                         "['purelib'])"], cwd=home, env=clean).stdout.strip())
+    assert (purelib / "mitsar" / "__init__.py").is_file(), "the wheel was not installed"
     dependencies = sorted({sysconfig.get_paths()[key] for key in ("purelib", "platlib")})
     (purelib / "_checkout_dependencies.pth").write_text("\n".join(dependencies) + "\n")
     TIMES["fresh venv + pip install wheel"] = time.perf_counter() - start
     work = home / "work"  # not the checkout: no examples/ or scenes/ beside it
     work.mkdir()
-    env = {key: value for key, value in os.environ.items()
-           if key not in ("PYTHONPATH", "PYTHONHOME", "VIRTUAL_ENV", "MITSAR_EXAMPLES")}
+    env = dict(clean)
     env.update(PATH=f"{prefix / 'bin'}{os.pathsep}{os.environ.get('PATH', '')}",
                PYTHONNOUSERSITE="1", VIRTUAL_ENV=str(prefix))
     yield {"prefix": prefix, "python": python, "mitsar": prefix / "bin" / "mitsar",
