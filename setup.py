@@ -4,7 +4,7 @@ data packages that live at the top level of the checkout and install inside ``mi
 
 from setuptools import find_packages, setup
 
-DATA_PACKAGES = ["mitsar._examples"]
+DATA_PACKAGES = ["mitsar._examples", "mitsar._scenes"]
 """Top-level folders installed as sub-packages of mitsar (pyproject.toml's package-dir)."""
 
 setup(packages=find_packages(include=["mitsar", "mitsar.*"]) + DATA_PACKAGES)

@@ -25,7 +25,7 @@ import tempfile
 import time
 from pathlib import Path
 
-WALLS = (  # id, scale x y, rotation, translation: as mitsar/scene/canned/control_volume.xml
+WALLS = (  # id, scale x y, rotation, translation: as scenes/control_volume.xml
     ("floor", (15, 5), "", (15, 5, 0)),
     ("ceiling", (15, 5), '<rotate x="1" angle="180"/>', (15, 5, 6)),
     ("wall_y0", (15, 3), '<rotate x="1" angle="-90"/>', (15, 0, 3)),

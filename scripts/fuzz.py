@@ -6,7 +6,7 @@ A seeded generator of bad (and some good) inputs over seven families:
     Mutated TOML experiments, starting from small copies of the bundled examples, run through
     the command line (in-process, ``--debug`` so that a foreign exception surfaces as such).
 ``xml``
-    Mutated Mitsuba scenes from ``mitsar/scene/canned/`` (material parameters, malformed XML,
+    Mutated Mitsuba scenes from ``scenes/`` (material parameters, malformed XML,
     unknown plugins and parameters, missing meshes, scenes that see nothing).
 ``api``
     Bad Python arguments to the public API (``mitsar.Radar``, ``Trajectory``, ``Look``,
@@ -67,7 +67,7 @@ from typing import Any
 
 REPO = Path(__file__).resolve().parent.parent
 EXAMPLES = REPO / "examples"
-CANNED = REPO / "mitsar" / "scene" / "canned"
+CANNED = REPO / "scenes"
 VERDICTS = ("CLEAN", "VAGUE", "TRACEBACK", "SILENT", "HANG", "CRASH", "DEBRIS", "OK", "REFUSED")
 FAILURES = ("TRACEBACK", "SILENT", "HANG", "CRASH", "DEBRIS", "REFUSED")
 """Verdicts a campaign must not have (VAGUE is reported, below 1% of the cases)."""

@@ -134,7 +134,7 @@ def test_multi_channel_focusing_refuses_what_it_cannot_do_exactly():
 
 # --- the ray tracer -----------------------------------------------------------------------------
 
-CANNED_TARGET = np.array([15.0, 8.0, 0.03])  # mitsar/scene/canned/point_target.xml
+CANNED_TARGET = np.array([15.0, 8.0, 0.03])  # scenes/point_target.xml
 SCENE_LOOK = mitsar.Look(55.71)
 
 

@@ -38,7 +38,7 @@ dr = pytest.importorskip("drjit")
 
 BACKENDS = ("llvm", "cuda")
 VARIANTS = {"llvm": DEFAULT_VARIANT, "cuda": GPU_VARIANT}
-CANNED_TARGET = np.array([15.0, 8.0, 0.03])  # mitsar/scene/canned/point_target.xml
+CANNED_TARGET = np.array([15.0, 8.0, 0.03])  # scenes/point_target.xml
 RADAR = mitsar.Radar()
 LOOK = mitsar.Look(math.degrees(math.atan2(6.6, 4.5)))
 TARGET = np.array([15.0, 8.0, 0.0])

@@ -12,7 +12,7 @@ from mitsar.raw.traced import simulate_scene
 
 RADAR = mitsar.Radar()
 LOOK = mitsar.Look(55.71)
-CANNED_TARGET = np.array([15.0, 8.0, 0.03])  # mitsar/scene/canned/point_target.xml
+CANNED_TARGET = np.array([15.0, 8.0, 0.03])  # scenes/point_target.xml
 START = np.array([14.8, 1.4, 4.5])
 PLATFORM_VELOCITY = np.array([0.5, 0.0, 0.0])
 

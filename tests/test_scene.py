@@ -71,6 +71,8 @@ EXPECTED_SHAPES = {
     "cross_section_2d": {"floor", "ceiling", "wall_y0", "wall_y10"},
     "box_obstacle": {"floor", "cabinet"},
     "walking_person": {"floor", "wall_y10", "wall_target", "person"},
+    "sionna_room": {"floor", "ceiling", "wall_y0", "wall_y5", "wall_x0", "wall_x8", "window",
+                    "cabinet", "target"},
 }
 
 
@@ -90,8 +92,10 @@ def test_canned_scene_loads(mi, name: str) -> None:
     assert {s.id for s in surfaces} == EXPECTED_SHAPES[name]
     assert [s.index for s in surfaces] == list(range(len(surfaces)))
     for s in surfaces:
-        if name == "point_target" or s.id == "wall_target":
+        if name == "point_target" or s.id in ("wall_target", "target"):
             assert s.material is None  # absorbing floor and the point targets
+        elif name == "sionna_room":  # ITU and radio materials: tests/test_sionna_scenes.py
+            assert s.material is not None
         else:
             assert s.material is not None and s.material.name == "concrete_94ghz_paper"
         lo, hi = (np.array(v) for v in (s.shape.bbox().min, s.shape.bbox().max))

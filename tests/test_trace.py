@@ -19,7 +19,7 @@ mi = pytest.importorskip("mitsuba")
 RADAR = mitsar.Radar()
 LOOK = mitsar.Look(55.71)
 TRACK = mitsar.Trajectory.linear([14.8, 1.4, 4.5], [0.5, 0.0, 0.0], 0.6)  # 150 sweeps
-CANNED_TARGET = np.array([15.0, 8.0, 0.03])  # mitsar/scene/canned/point_target.xml
+CANNED_TARGET = np.array([15.0, 8.0, 0.03])  # scenes/point_target.xml
 
 
 def _relative_error_db(value, reference):

@@ -11,7 +11,7 @@
 - :mod:`mitsar.scene.masks`: :func:`layover_shadow_masks`, an image's layover and shadow masks
   from the scene's geometry (docs/interferometry.md).
 - :mod:`mitsar.scene.motion`: moving shapes (:class:`~mitsar.scene.motion.SceneMotion`).
-- :mod:`mitsar.scene.canned`: the bundled XML scenes.
+- :mod:`mitsar.scene.canned`: the bundled XML scenes by name (the files: ``scenes/``).
 """
 
 from mitsar.scene.loading import load_scene

@@ -1,7 +1,7 @@
 """Loading Mitsuba XML scenes with errors that name the file, the element and the parameter.
 
-:func:`load_scene` registers mitsar's plugins, resolves canned scene names
-(:mod:`mitsar.scene.canned`), checks that referenced mesh files exist, and translates
+:func:`load_scene` registers mitsar's plugins, resolves the names of the bundled scenes
+(``scenes/``, :mod:`mitsar.scene.canned`), checks that referenced mesh files exist, and translates
 Mitsuba's loader exceptions (one ``RuntimeError`` for everything) into
 :class:`~mitsar.errors.MissingFileError`, :class:`~mitsar.errors.ParameterError` or
 :class:`~mitsar.errors.SceneError`, located by the XML line and column Mitsuba reports.
@@ -160,8 +160,9 @@ def load_scene(path_or_scene: Any, **params: Any) -> Any:
     Parameters
     ----------
     path_or_scene : str, os.PathLike or mitsuba.Scene
-        An XML file, a canned scene name (``mitsar.scene.canned.names()``, e.g.
-        ``"dihedral"``), or an already loaded scene (returned unchanged).
+        An XML file, the name of a bundled scene (``scenes/*.xml``;
+        ``mitsar.scene.canned.names()``, e.g. ``"dihedral"``, ``"sionna_room"``), or an
+        already loaded scene (returned unchanged).
     **params
         Values of the scene's ``<default name=...>`` parameters (converted with ``str``), e.g.
         ``material="concrete_94ghz"``.
@@ -201,7 +202,7 @@ def load_scene(path_or_scene: Any, **params: Any) -> Any:
         else:
             raise MissingFileError(
                 f"load_scene: scene file {str(path_or_scene)!r} not found (give an XML file or "
-                f"one of the canned scenes {canned.names()})")
+                f"one of the bundled scenes {canned.names()})")
     path = path.resolve()
     str_params = {key: str(value) for key, value in params.items()}
     elements = _scan_xml(path)

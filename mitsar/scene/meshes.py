@@ -1,4 +1,4 @@
-"""PLY triangle meshes for the canned scenes (``mitsar/scene/canned/meshes``)."""
+"""PLY triangle meshes for the bundled scenes (``scenes/meshes``)."""
 
 from __future__ import annotations
 
