@@ -8,6 +8,7 @@ from mitsar import ambiguity
 from mitsar.errors import MitsarError, ParameterError
 from mitsar.export import read_cphd
 from mitsar.features import detect
+from mitsar.features.mapping import map_scene
 from mitsar.features.scores import map_scores
 from mitsar.focus import grid
 from mitsar.focus.compression import range_compress
@@ -29,7 +30,8 @@ from mitsar.version import __version__
 __all__ = [
     "Background", "Look", "MitsarError", "NavigationErrors", "ParameterError", "PointTarget",
     "Radar", "TraceOptions", "Trajectory", "Vibration", "__version__", "ambiguity", "boresight",
-    "detect", "focus", "grid", "histogram_to_raw_product", "interferogram", "load", "map_scores",
+    "detect", "focus", "grid", "histogram_to_raw_product", "interferogram", "load", "map_scene",
+    "map_scores",
     "measure_impulse_response", "range_compress", "raw_from_arrays", "read_cphd", "read_gotcha",
     "read_raw", "save", "simulate_point_targets", "simulate_scene", "trace",
 ]
