@@ -16,7 +16,8 @@ def cmd_ambiguity(args: argparse.Namespace) -> int:
     log(args, f"ambiguity maps of {args.experiment} ...")
     summary = run_ambiguity_experiment(args.experiment, args.output, overwrite=args.overwrite,
                                        figures=False if args.no_figures else None,
-                                       progress=not args.quiet)
+                                       progress=not args.quiet,
+                                       log=lambda message: log(args, message))
     if summary.get("comparison_table"):
         print(summary["comparison_table"])
     for name in summary.get("files", []):

@@ -20,6 +20,7 @@ from mitsar.cli.stages import (
     cmd_simulate,
 )
 from mitsar.experiment.options import ALGORITHMS, AUTOFOCUS_METHODS, ISLR_EXTENTS, WINDOWS
+from mitsar.experiment.runs import RESUME_CHUNK_SWEEPS
 from mitsar.version import __version__
 
 __all__ = ["build_parser"]
@@ -104,6 +105,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "of a TOML experiment file (docs/experiments.md).",
                         ("experiment", "EXPERIMENT.toml"), "raw product to write (.nc)")
     sub.add_argument("--seed", type=int, help="override [simulation] seed")
+    sub.add_argument("--chunk-sweeps", type=int, default=RESUME_CHUNK_SWEEPS, metavar="N",
+                     help="sweeps simulated and kept at a time: an interrupted run resumes "
+                     f"from its last finished chunk (default {RESUME_CHUNK_SWEEPS})")
     _add_set(sub)
 
     sub = _file_command(commands, common, "range", cmd_range, "range-compress raw data",

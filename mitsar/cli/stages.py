@@ -28,7 +28,10 @@ __all__ = ["cmd_export", "cmd_focus", "cmd_metrics", "cmd_plot", "cmd_range", "c
 
 
 def cmd_simulate(args: argparse.Namespace) -> int:
-    """``mitsar simulate``: experiment file -> raw product."""
+    """``mitsar simulate``: experiment file -> raw product, chunk by chunk of sweeps; an
+    interrupted run resumes from its last finished chunk (docs/reliability.md §5)."""
+    if args.chunk_sweeps < 1:
+        raise MitsarError(f"--chunk-sweeps: expected an integer >= 1, found {args.chunk_sweeps}")
     experiment = load_experiment(args.experiment, args.set)
     if not experiment.passes:  # with [[passes]]: one file per pass, checked by simulate_to
         check_writable(args.output, args.overwrite)
@@ -41,7 +44,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     log(args, f"simulating {args.experiment} ...")
     sweeps = simulate_to(experiment, args.output, overwrite=args.overwrite,
-                         progress=not args.quiet)
+                         progress=not args.quiet, chunk_sweeps=args.chunk_sweeps,
+                         log=lambda message: log(args, message))
     written = (", ".join(str(pass_path(args.output, i)) for i in range(len(experiment.passes)))
                if experiment.passes else args.output)
     kind = f"{len(experiment.passes)} raw products (one per pass)" if experiment.passes else (

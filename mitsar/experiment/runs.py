@@ -9,6 +9,10 @@ from the product, never by parsing the experiment again.
 An experiment with ``[[passes]]`` gives one raw product per pass (:func:`simulate_passes`),
 made by the producers of a single acquisition; the passes share the scene and what belongs to
 it (docs/experiments.md §Passes).
+
+:func:`simulate_to` (``mitsar simulate``) writes a product chunk by chunk of sweeps through a
+work folder beside it, so that an interrupted run resumes from its last finished chunk to the
+same bits (:class:`mitsar.io.WorkFolder`, docs/reliability.md §5).
 """
 
 from __future__ import annotations
@@ -16,29 +20,43 @@ from __future__ import annotations
 import dataclasses
 import os
 import warnings
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import xarray as xr
+from tqdm.auto import tqdm
 
 from mitsar.errors import MitsarError, MitsarWarning, ParameterError
 from mitsar.experiment.options import PASS_SEED_RULE, Experiment, FocusOptions, MetricsOptions
 from mitsar.focus.dispatch import focus
-from mitsar.io import ZarrStream, check_writable, is_zarr, save
+from mitsar.io import (
+    ProductFileError,
+    WorkFolder,
+    ZarrStream,
+    check_writable,
+    file_digest,
+    is_zarr,
+    load,
+    save,
+)
 from mitsar.model.noise import check_noise, thermal_noise
+from mitsar.model.signal import sweep_count
 from mitsar.products.image import carry_requests
 from mitsar.products.requests import metrics_request, request_attrs
 from mitsar.quality.impulse import measure_impulse_response
 from mitsar.raw.analytic import simulate_point_targets, stream_point_targets
+from mitsar.raw.product import require_raw_memory
 from mitsar.raw.traced import simulate_scene
 from mitsar.scene import load_scene
 
 EMPTY_SCENE_WARNING = "simulate_scene: raw data of exact zeros"
 """Start of :func:`simulate_scene`'s warning for an acquisition that sees nothing."""
 
-__all__ = ["pass_experiment", "pass_path", "run_focus", "run_focus_passes", "run_metrics",
-           "run_simulation", "simulate_pass", "simulate_passes", "simulate_to"]
+__all__ = ["RESUME_CHUNK_SWEEPS", "pass_experiment", "pass_path", "run_focus",
+           "run_focus_passes", "run_metrics", "run_simulation", "simulate_pass",
+           "simulate_passes", "simulate_to"]
 
 
 def run_simulation(experiment: Experiment, progress: bool = False) -> xr.Dataset:
@@ -64,13 +82,16 @@ def run_simulation(experiment: Experiment, progress: bool = False) -> xr.Dataset
     return _simulate(experiment, progress)
 
 
-def _simulate(experiment: Experiment, progress: bool, scene: Any = None) -> xr.Dataset:
-    """The raw product of a one-acquisition experiment (``scene``: its scene, already loaded)."""
+def _simulate(experiment: Experiment, progress: bool, scene: Any = None,
+              empty: str = "error") -> xr.Dataset:
+    """The raw product of a one-acquisition experiment (``scene``: its scene, already loaded;
+    ``empty``: ``"error"`` refuses a traced acquisition of exact zeros, ``"ignore"`` returns
+    it, for a chunk of sweeps whose neighbours may see the scene)."""
     options = experiment.simulation  # the experiment's layer of the trace request
     if experiment.scene is not None:
         # An experiment whose echoes are all zero is refused (the API only warns).
         with warnings.catch_warnings():
-            warnings.filterwarnings("error", EMPTY_SCENE_WARNING, MitsarWarning)
+            warnings.filterwarnings(empty, EMPTY_SCENE_WARNING, MitsarWarning)
             try:
                 raw = simulate_scene(
                     experiment.radar, experiment.trajectory, experiment.look,
@@ -243,15 +264,28 @@ def _experiment_attrs(experiment: Experiment) -> dict[str, Any]:
         focus=dataclasses.asdict(experiment.focus))
 
 
-def simulate_to(experiment: Experiment, path: str | os.PathLike, overwrite: bool = False,
-                progress: bool = False, chunk_sweeps: int = 1024) -> int:
-    """Simulate an experiment's raw product straight into a file or Zarr store.
+RESUME_CHUNK_SWEEPS = 1024
+"""Sweeps per chunk of :func:`simulate_to` (the unit of resumption): a multiple of the ray
+tracer's 128-sweep chunks, so that a traced product made chunk by chunk equals one
+:func:`mitsar.simulate_scene` call bit for bit wherever the tracer keeps those chunks
+(docs/reliability.md §5)."""
 
-    To a ``.zarr`` path, a point-target experiment is simulated ``chunk_sweeps`` sweeps at a
-    time and each chunk appended to the store (:func:`mitsar.raw.analytic.stream_point_targets`,
-    :class:`mitsar.io.ZarrStream`), so memory holds one chunk, not the acquisition; a scene
-    experiment is traced whole and written chunked. Any other path gets
-    :func:`run_simulation` and :func:`mitsar.io.save`.
+
+def simulate_to(experiment: Experiment, path: str | os.PathLike, overwrite: bool = False,
+                progress: bool = False, chunk_sweeps: int = RESUME_CHUNK_SWEEPS,
+                log: Any = None) -> int:
+    """Simulate an experiment's raw product into a file or Zarr store, resumably.
+
+    The acquisition is simulated ``chunk_sweeps`` sweeps at a time (a point-target experiment
+    by :func:`mitsar.raw.analytic.stream_point_targets`, a scene experiment by
+    :func:`mitsar.simulate_scene` of each chunk's sweeps, its scatterer set drawn once from the
+    scene and seed) and each chunk is written, atomically, to the work folder
+    ``.NAME.partial`` beside ``path`` (:class:`mitsar.io.WorkFolder`). When every chunk is
+    there the product is assembled and moved into place (a ``.zarr`` store chunk by chunk,
+    :class:`mitsar.io.ZarrStream`, so memory holds one chunk; a netCDF file whole) and the work
+    folder removed. A run interrupted (SIGINT, SIGKILL, a crash) and run again with the same
+    experiment, options and mitsar version simulates only the chunks not yet written and gives
+    the same bits as an uninterrupted run; with other inputs it starts over.
 
     Parameters
     ----------
@@ -263,42 +297,233 @@ def simulate_to(experiment: Experiment, path: str | os.PathLike, overwrite: bool
     progress : bool
         Show a progress bar.
     chunk_sweeps : int
-        Sweeps per streamed chunk (and per Zarr chunk).
+        Sweeps per chunk (and per Zarr chunk). A multiple of 128 keeps a traced product equal
+        to one :func:`mitsar.simulate_scene` call (:data:`RESUME_CHUNK_SWEEPS`).
+    log : callable, optional
+        Receives the messages of a resumed or restarted run.
 
     Returns
     -------
     int
         Number of sweeps written (of all passes).
 
+    Raises
+    ------
+    OutputExistsError
+        If a destination exists and ``overwrite`` is false (checked before any work).
+    MitsarError
+        For a scene experiment whose echoes are all zero (nothing of the scene in the beam).
+
     Notes
     -----
     An experiment with ``[[passes]]`` writes one product per pass, ``path`` with ``_pass<i>``
     before its suffix (:func:`pass_path`: ``raw_pass0.nc``, ``raw_pass1.nc``, ...), each whole
-    (:func:`simulate_passes`); every file is checked before anything is simulated.
+    (:func:`simulate_pass`) and resumed pass by pass; every file is checked before anything is
+    simulated.
     """
+    path = Path(path)
+    if isinstance(chunk_sweeps, bool) or not isinstance(chunk_sweeps, int | np.integer) \
+            or chunk_sweeps < 1:
+        raise ParameterError("simulate_to", "chunk_sweeps", "an integer >= 1", chunk_sweeps)
+    chunk_sweeps = int(chunk_sweeps)
     if experiment.passes:
-        paths = [pass_path(path, index) for index in range(len(experiment.passes))]
-        for each in paths:
-            check_writable(each, overwrite)
-        raws = simulate_passes(experiment, progress=progress)
-        for raw, each in zip(raws, paths, strict=True):
-            save(raw, each, overwrite=overwrite)
-        return sum(int(raw.sizes["sweep"]) for raw in raws)
-    if not is_zarr(path) or experiment.scene is not None:
-        raw = run_simulation(experiment, progress=progress)
-        save(raw, path, overwrite=overwrite)
-        return int(raw.sizes["sweep"])
+        return _simulate_passes_to(experiment, path, overwrite, progress, log)
+    check_writable(path, overwrite)
+    total = sweep_count(experiment.radar, experiment.trajectory.duration)
+    if not is_zarr(path):  # a netCDF file is assembled whole: refused before any chunk
+        require_raw_memory(str(experiment.source or "experiment"), experiment.radar, total)
+    if experiment.scene is not None and experiment.simulation.sweeps is not None:
+        chunk_sweeps = max(total, 1)  # the experiment picks its sweeps: one chunk
+    count = max(1, -(-total // chunk_sweeps))
+    inputs = _simulate_inputs(experiment, path, chunk_sweeps)
+    with WorkFolder(path, inputs, command="simulate", log=log) as work:
+        first = 0
+        while first < count and work.done(_chunk_key(first)) \
+                and work.file(_chunk_file(first)).exists():
+            first += 1
+        if experiment.scene is not None:
+            produced = _traced_chunks(experiment, total, chunk_sweeps, first, progress)
+        else:
+            produced = _analytic_chunks(experiment, chunk_sweeps, first, progress)
+        for index, chunk in produced:
+            save(chunk, work.file(_chunk_file(index)), overwrite=True)
+            work.mark(_chunk_key(index), {"sweeps": int(chunk.sizes["sweep"]),
+                                          "zero": not bool(np.any(chunk["raw"].values)),
+                                          "variables": list(map(str, chunk.variables)),
+                                          **_counters(chunk)})
+        return _assemble(work, experiment, path, count, chunk_sweeps, overwrite)
+
+
+def _chunk_key(index: int) -> str:
+    return f"chunk{index}"
+
+
+def _chunk_file(index: int) -> str:
+    return f"chunk{index:05d}.nc"
+
+
+def _counters(raw: xr.Dataset) -> dict[str, int]:
+    """The tracer's work counters of a chunk (``traced_*`` attributes), summed on assembly."""
+    return {key: int(value) for key, value in raw.attrs.items() if key.startswith("traced_")}
+
+
+def _simulate_inputs(experiment: Experiment, path: Path, chunk_sweeps: int) -> dict[str, Any]:
+    """What a simulated product depends on, for :class:`mitsar.io.WorkFolder`: the effective
+    experiment (``--set`` and ``--seed`` included), the content of a scene file, the chunking
+    and the format."""
+    scene = None
+    if experiment.scene is not None:
+        candidates = [Path(str(experiment.scene))]
+        if experiment.source is not None:
+            candidates.append(Path(experiment.source).parent / str(experiment.scene))
+        scene = next((digest for digest in map(file_digest, candidates) if digest),
+                     str(experiment.scene))
+    return {"command": "simulate", "experiment": experiment.config, "scene": scene,
+            "chunk_sweeps": chunk_sweeps, "format": path.suffix.lower(),
+            "passes": len(experiment.passes)}
+
+
+def _analytic_chunks(experiment: Experiment, chunk_sweeps: int, first: int,
+                     progress: bool) -> Iterator[tuple[int, xr.Dataset]]:
+    """(index, raw product) of the chunks from ``first`` on, of a point-target experiment."""
     options = experiment.simulation.resolve(str(experiment.source or "experiment"))
     chunks = stream_point_targets(
         experiment.radar, experiment.trajectory, experiment.look, experiment.targets,
         background=experiment.background, seed=options.seed, rvp=options.rvp,
         normalized=options.normalized, noise=options.noise, progress=progress,
-        navigation=experiment.navigation, sweeps_per_chunk=chunk_sweeps)
-    with ZarrStream(Path(path), overwrite=overwrite, chunk_sweeps=chunk_sweeps) as out:
-        for chunk in chunks:
-            chunk.attrs.update(_experiment_attrs(experiment))
-            out.append(chunk)
-    return out.sweeps
+        navigation=experiment.navigation, sweeps_per_chunk=chunk_sweeps, first_chunk=first)
+    for index, chunk in enumerate(chunks, start=first):
+        chunk.attrs.update(_experiment_attrs(experiment))
+        yield index, chunk
+
+
+def _traced_chunks(experiment: Experiment, total: int, chunk_sweeps: int, first: int,
+                   progress: bool) -> Iterator[tuple[int, xr.Dataset]]:
+    """(index, raw product) of the chunks from ``first`` on, of a scene experiment: each
+    chunk's sweeps traced alone (``sweeps=``), the scene loaded once (its scatterer set is
+    drawn from the scene, density and seed, whatever the sweeps)."""
+    count = max(1, -(-total // chunk_sweeps))
+    if first >= count:
+        return
+    scene = load_scene(experiment.scene)
+    whole = experiment.simulation.sweeps is not None
+    for index in tqdm(range(first, count), disable=not progress or count == 1,
+                      desc="simulate (traced)", unit="chunk", initial=first, total=count):
+        chunked = experiment if whole else dataclasses.replace(
+            experiment, simulation=dataclasses.replace(
+                experiment.simulation,
+                sweeps=slice(index * chunk_sweeps, min((index + 1) * chunk_sweeps, total))))
+        yield index, _simulate(chunked, progress and count == 1, scene, empty="ignore")
+
+
+def _assemble(work: WorkFolder, experiment: Experiment, path: Path, count: int,
+              chunk_sweeps: int, overwrite: bool) -> int:
+    """The product of the finished chunks in ``work``, moved into ``path``; the work folder
+    removed. Returns the number of sweeps."""
+    infos = [work.info(_chunk_key(index)) for index in range(count)]
+    files = [work.file(_chunk_file(index)) for index in range(count)]
+    if experiment.scene is not None and all(info.get("zero") for info in infos):
+        first = load(files[0], product="raw")
+        work.remove()
+        raise MitsarError(f"{experiment.source or 'experiment'}: scene {experiment.scene!r}: "
+                          f"{_empty_scene_message(first.attrs)}")
+    totals: dict[str, int] = {}
+    for info in infos:
+        for key, value in info.items():
+            if key.startswith("traced_"):
+                totals[key] = totals.get(key, 0) + int(value)
+    if is_zarr(path):
+        with ZarrStream(path, overwrite=overwrite, chunk_sweeps=chunk_sweeps) as out:
+            for file in files:
+                out.append(load(file, product="raw"))
+            if totals:
+                out.finish(totals)
+        sweeps = out.sweeps
+    else:
+        raw = _concatenate(files, [int(info["sweeps"]) for info in infos],
+                           infos[0].get("variables"))
+        raw.attrs.update(totals)
+        save(raw, path, overwrite=overwrite)
+        sweeps = int(raw.sizes["sweep"])
+    work.remove()
+    return sweeps
+
+
+def _concatenate(files: list[Path], counts: list[int], order: list[str] | None = None
+                 ) -> xr.Dataset:
+    """The chunk files of a product (``counts``: their sweeps) joined along ``sweep``, read one
+    at a time into arrays of the whole acquisition (memory: the product and one chunk).
+    Variables come in ``order`` (the producer's, which a file read back does not keep; default
+    the first chunk's) and without the encodings of the files they were read from, so that the
+    file written is the one a product made whole in memory gives, byte for byte; variables
+    without a ``sweep`` dimension are the first chunk's."""
+    first = load(files[0], product="raw")
+    along = {name: variable for name, variable in first.variables.items()
+             if "sweep" in variable.dims}
+    arrays: dict[str, np.ndarray] = {}
+    for name, variable in along.items():
+        shape = list(variable.shape)
+        shape[variable.dims.index("sweep")] = sum(counts)
+        arrays[name] = np.empty(shape, dtype=variable.dtype)
+    offset = 0
+    for index, (file, count) in enumerate(zip(files, counts, strict=True)):
+        part = first if index == 0 else load(file, product="raw")
+        if part.sizes["sweep"] != count:
+            raise ProductFileError(f"{file}: expected a chunk of {count} sweeps, found "
+                                   f"{part.sizes['sweep']}")
+        for name, variable in along.items():
+            where = [slice(None)] * variable.ndim
+            where[variable.dims.index("sweep")] = slice(offset, offset + count)
+            arrays[name][tuple(where)] = part[name].values
+        offset += count
+    out = xr.Dataset(attrs=dict(first.attrs))
+    names = [name for name in order or () if name in first.variables]
+    names += [name for name in first.variables if name not in names]
+    for name in names:  # the product's own order (coordinates among the others)
+        source = first.variables[name]
+        if name in arrays:
+            variable = xr.Variable(source.dims, arrays[name], attrs=dict(source.attrs))
+        else:
+            variable = source.copy(deep=False)
+            variable.encoding = {}
+        if name in first.coords:
+            out = out.assign_coords({name: variable})
+        else:
+            out[name] = variable
+    return out
+
+
+def _empty_scene_message(attrs: Any) -> str:
+    """:func:`mitsar.simulate_scene`'s words for an acquisition of exact zeros."""
+    return (f"{EMPTY_SCENE_WARNING}: nothing of the scene is in the beam "
+            f"({attrs.get('scatterer_count')} surface scatterers, "
+            f"{attrs.get('point_target_count')} point targets, orders "
+            f"{[int(o) for o in np.atleast_1d(attrs.get('orders', []))]}): check the look "
+            "angles, the trajectory, the materials and the orders")
+
+
+def _simulate_passes_to(experiment: Experiment, path: Path, overwrite: bool, progress: bool,
+                        log: Any) -> int:
+    """:func:`simulate_to` of a multi-pass experiment: resumable pass by pass."""
+    paths = [pass_path(path, index) for index in range(len(experiment.passes))]
+    for each in paths:
+        check_writable(each, overwrite)
+    inputs = _simulate_inputs(experiment, path, 0)
+    with WorkFolder(path, inputs, command="simulate", log=log) as work:
+        scene, total = None, 0
+        for index in range(len(paths)):
+            key, file = f"pass{index}", work.file(f"pass{index}{path.suffix}")
+            if not (work.done(key) and file.exists()):
+                if experiment.scene is not None and scene is None:
+                    scene = load_scene(experiment.scene)
+                raw = simulate_pass(experiment, index, progress=progress, scene=scene)
+                save(raw, file, overwrite=True)
+                work.mark(key, {"sweeps": int(raw.sizes["sweep"])})
+            total += int(work.info(key)["sweeps"])
+        for index, each in enumerate(paths):
+            work.move_file(work.file(f"pass{index}{path.suffix}"), each, overwrite=overwrite)
+        work.remove()
+    return total
 
 
 def run_focus(raw: xr.Dataset, options: FocusOptions, progress: bool = False) -> xr.Dataset:

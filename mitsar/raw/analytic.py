@@ -188,8 +188,8 @@ def stream_point_targets(radar: Radar, trajectory: Trajectory, look: Look,
                          rvp: bool = True, normalized: bool = False, pattern: bool = True,
                          noise: bool = False, progress: bool = False, backend: str = "drjit",
                          sweeps_per_chunk: int = 1024,
-                         navigation: Trajectory | NavigationErrors | None = None
-                         ) -> Iterator[xr.Dataset]:
+                         navigation: Trajectory | NavigationErrors | None = None,
+                         first_chunk: int = 0) -> Iterator[xr.Dataset]:
     """:func:`simulate_point_targets` chunk by chunk of sweeps, for products larger than memory.
 
     Yields raw products of ``sweeps_per_chunk`` consecutive sweeps (the last one shorter) whose
@@ -205,6 +205,10 @@ def stream_point_targets(radar: Radar, trajectory: Trajectory, look: Look,
     ----------
     sweeps_per_chunk : int
         Sweeps per yielded chunk (>= 1).
+    first_chunk : int
+        Chunks not yielded, to resume an interrupted run (:func:`mitsar.experiment.runs.
+        simulate_to`): their random draws are still made, without the echo sums, so that the
+        chunks yielded are those of a run from the start, bit for bit.
     Other parameters
         As for :func:`simulate_point_targets`.
 
@@ -214,6 +218,7 @@ def stream_point_targets(radar: Radar, trajectory: Trajectory, look: Look,
         As :func:`simulate_point_targets` (an all-zero acquisition after the last chunk).
     """
     sweeps_per_chunk = integer("stream_point_targets", "sweeps_per_chunk", sweeps_per_chunk, 1)
+    first_chunk = integer("stream_point_targets", "first_chunk", first_chunk, 0)
     plan = _plan(radar, trajectory, look, targets, background, seed, rvp=rvp,
                  normalized=normalized, pattern=pattern, noise=noise, backend=backend,
                  navigation=navigation, budget_sweeps=sweeps_per_chunk)
@@ -228,6 +233,8 @@ def stream_point_targets(radar: Radar, trajectory: Trajectory, look: Look,
                                      plan["velocities"], plan["reflectivity"](part.stop - start),
                                      normalized=normalized, pattern=pattern)
         any_echo = any_echo or bool(np.any(amplitude))
+        if start < first_chunk * sweeps_per_chunk:  # done by an interrupted run: draws only
+            continue
         channels = [_channel_samples(radar, trajectory, plan, chunk_geometry, amplitude,
                                      np.arange(part.start, part.stop), channel, offsets,
                                      sum_echoes, rvp=rvp, noise=noise, seed=seed,

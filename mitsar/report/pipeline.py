@@ -4,7 +4,9 @@
 (:func:`mitsar.report.run.run_experiment`) and ``mitsar demo`` (:mod:`mitsar.cli.demo`) both
 call it, with their own file names (:class:`PipelineFiles`). What the figures and metrics need
 (targets, metrics target, ISLR extent) they read from the products
-(:mod:`mitsar.products`), not from the experiment.
+(:mod:`mitsar.products`), not from the experiment. In a resumable run (a :class:`RunFolder`
+with a work folder, ``mitsar run``) the stages ``simulate`` and ``focus`` are recorded as they
+finish and reused after an interruption (docs/reliability.md §5).
 """
 
 from __future__ import annotations
@@ -21,8 +23,8 @@ import xarray as xr
 
 from mitsar.errors import MitsarError, ParameterError
 from mitsar.experiment.options import Experiment
-from mitsar.experiment.runs import run_focus, run_metrics, run_simulation
-from mitsar.io import save
+from mitsar.experiment.runs import run_focus, run_metrics, run_simulation, simulate_to
+from mitsar.io import WorkFolder, load, save
 from mitsar.plots.figures import (
     background_samples,
     beam_range_marks,
@@ -48,13 +50,48 @@ class RunFolder:
         The folder (file names below are relative to it; absolute ones are kept).
     overwrite : bool
         Replace existing files.
+    work : WorkFolder, optional
+        The resumable run's work folder (``mitsar run``; ``out`` lies inside it): a stage whose
+        products it records as finished is reused (:meth:`reuse`) instead of run again, and a
+        stage's products are read back from their files once written (:meth:`finished`), so
+        that what follows reads the same bits whether the stage ran now or before an
+        interruption.
     """
 
-    def __init__(self, out: Path, overwrite: bool) -> None:
-        self.out, self.overwrite = Path(out), overwrite
+    def __init__(self, out: Path, overwrite: bool, work: WorkFolder | None = None) -> None:
+        self.out, self.overwrite, self.work = Path(out), overwrite, work
         self.record: dict[str, Any] = {"steps": {}, "products": [], "figures": [],
                                        "metrics": {}, "tables": [], "warnings": []}
         self.plot_seconds = 0.0
+
+    def reuse(self, stage: str, files: Sequence[str]) -> list[xr.Dataset] | None:
+        """The products of ``stage`` when an interrupted run finished it (listed, with the
+        stage's recorded step times), else None (no work folder, not finished, or a file
+        missing)."""
+        if self.work is None or not self.work.done(stage):
+            return None
+        paths = [self.out / file for file in files]
+        if not all(path.exists() for path in paths):
+            return None
+        self.record["steps"].update(self.work.info(stage).get("steps", {}))
+        self.record["products"].extend(str(file) for file in files)
+        return [load(path) for path in paths]
+
+    def finished(self, stage: str, files: Sequence[str], steps: Sequence[str] = ()
+                 ) -> list[xr.Dataset] | None:
+        """Record ``stage`` (its products ``files`` written) as finished in the work folder and
+        return the products read back; None without a work folder."""
+        if self.work is None:
+            return None
+        self.work.mark(stage, {"files": list(files), "steps": {
+            step: self.record["steps"][step] for step in steps if step in self.record["steps"]}})
+        return [load(self.out / file) for file in files]
+
+    def stage_done(self, stage: str, files: Sequence[str]) -> bool:
+        """True when an interrupted run finished ``stage`` and its files are there (a stage
+        without products, e.g. a slow figure, that need not run again)."""
+        return (self.work is not None and self.work.done(stage)
+                and all((self.out / file).exists() for file in files))
 
     def step(self, name: str, start: float) -> None:
         """Record the wall time [s] of step ``name`` started at ``start``."""
@@ -138,11 +175,7 @@ def run_pipeline(run: RunFolder, experiment: Experiment, algorithms: Sequence[st
     """
     log = log or (lambda message: None)
     if raw is None:
-        log("simulating raw data ...")
-        start = time.perf_counter()
-        raw = run_simulation(experiment, progress=progress)
-        run.step("simulate", start)
-        run.product(raw, files.raw)
+        raw = _simulated(run, experiment, files, progress, log)
     result = PipelineResult(raw)
     figure, ax = plt.subplots(figsize=(8, 5), layout="constrained")
     plot_range_compressed(raw, ax=ax)
@@ -164,22 +197,53 @@ def run_pipeline(run: RunFolder, experiment: Experiment, algorithms: Sequence[st
     return result
 
 
+def _simulated(run: RunFolder, experiment: Experiment, files: PipelineFiles, progress: bool,
+               log: Callable[[str], None]) -> xr.Dataset:
+    """The raw product of the stage ``simulate``: reused from an interrupted run, or simulated
+    (in a resumable run chunk by chunk, :func:`mitsar.experiment.runs.simulate_to`, so that
+    an interruption inside it resumes from the last chunk), saved and listed."""
+    stage = f"simulate {files.raw}"
+    reused = run.reuse(stage, [files.raw])
+    if reused is not None:
+        log(f"simulate: reusing {files.raw} of the interrupted run")
+        return reused[0]
+    log("simulating raw data ...")
+    start = time.perf_counter()
+    if run.work is None:
+        raw = run_simulation(experiment, progress=progress)
+        run.step("simulate", start)
+        run.product(raw, files.raw)
+        return raw
+    simulate_to(experiment, run.out / files.raw, overwrite=True, progress=progress, log=log)
+    run.step("simulate", start)
+    run.record["products"].append(str(files.raw))
+    return run.finished(stage, [files.raw], ["simulate"])[0]
+
+
 def _focus_and_measure(run: RunFolder, experiment: Experiment, result: PipelineResult,
                        algorithm: str, scene: Any, progress: bool, strict: bool,
                        files: PipelineFiles, log: Callable[[str], None]) -> None:
     options = dataclasses.replace(experiment.focus, algorithm=algorithm)
-    log(f"focusing ({algorithm.upper()}) ...")
-    start = time.perf_counter()
-    try:
-        image = run_focus(result.raw, options, progress=progress)
-    except (ParameterError, MitsarError) as error:
-        if strict:
-            raise
-        run.warn(f"{algorithm}: not focused: {error}")
-        return
-    run.step(f"focus {algorithm}", start)
+    file = files.image.format(algorithm=algorithm)
+    stage = f"focus {file}"
+    reused = run.reuse(stage, [file])
+    if reused is not None:
+        log(f"focus: reusing {file} of the interrupted run")
+        image = reused[0]
+    else:
+        log(f"focusing ({algorithm.upper()}) ...")
+        start = time.perf_counter()
+        try:
+            image = run_focus(result.raw, options, progress=progress)
+        except (ParameterError, MitsarError) as error:
+            if strict:
+                raise
+            run.warn(f"{algorithm}: not focused: {error}")
+            return
+        run.step(f"focus {algorithm}", start)
+        run.product(image, file)
+        image = (run.finished(stage, [file], [f"focus {algorithm}"]) or [image])[0]
     result.images[algorithm] = image
-    run.product(image, files.image.format(algorithm=algorithm))
     figure, ax = plt.subplots(figsize=(7, 6), layout="constrained")
     marks = (beam_range_marks(image) if scene is None
              else scene_range_marks(image, result.raw, scene))

@@ -27,11 +27,20 @@
 A step that cannot run for this experiment (an algorithm that refuses the track, a target
 outside the image) is reported as a warning in the record and the report, and the run goes on.
 Outputs are written atomically and never replace files unless ``overwrite``.
+
+The run is made in a work folder beside the output folder (``.DIR.partial``,
+:class:`mitsar.io.WorkFolder`) and moved into it when finished, ``run.json`` and
+``report.html`` last. Its stages are recorded there as they finish (the raw product, chunk by
+chunk; each image; the Monte Carlo realisations and their cuts), so a run interrupted by SIGINT
+or SIGKILL and started again with the same inputs reuses them, and what follows a stage reads
+its products from their files either way: the products and figures of a resumed run are those
+of an uninterrupted one, bit for bit (docs/reliability.md §5).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import sys
 import time
 from collections.abc import Sequence
 from pathlib import Path
@@ -60,7 +69,7 @@ from mitsar.experiment.runs import (
     run_metrics,
     simulate_passes,
 )
-from mitsar.io import check_writable, write_json
+from mitsar.io import ProductFileError, WorkFolder, check_writable, file_digest, write_json
 from mitsar.plots import navigation as plots_navigation
 from mitsar.plots.figures import plot_cuts, plot_image, target_marks
 from mitsar.plots.footprint import plot_footprint
@@ -109,26 +118,68 @@ def run_experiment(path: str | Path, out_dir: str | Path, *, overrides: Sequence
     -------
     Path
         ``report.html``.
+
+    Raises
+    ------
+    OutputExistsError
+        If the folder holds a run record (or, when the run ends, any file it would write) and
+        ``overwrite`` is false; the finished run then waits in the work folder and a rerun
+        with ``overwrite`` only moves it.
+    MitsarError
+        If another process is making the same run (its work folder is locked).
     """
     path, out = Path(path), Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    check_writable(out / RUN_RECORD, overwrite)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    if out.exists() and not out.is_dir():
+        raise ProductFileError(f"{out}: is a file, expected an output folder")
+    if out.is_dir():
+        check_writable(out / RUN_RECORD, overwrite)
     document = read_toml(path)
-    run = RunFolder(out, overwrite)
-    if _is_ambiguity(document):
-        if overrides:
-            raise ParameterError(str(path), "--set", "no overrides for an ambiguity file "
-                                 "(edit the file)", list(overrides))
-        _ambiguity(run, path, document, progress)
-    else:
-        experiment = experiment_from_dict(apply_overrides(document, overrides, str(path)),
-                                          source=path)
-        _experiment(run, experiment, algorithms, realisations, progress)
-    run.record.setdefault("title", document.get("name") or path.stem)
-    run.record.setdefault("description", document.get("description", ""))
-    run.record["source"] = str(path.resolve())
-    write_json(run.record, out / RUN_RECORD, overwrite=overwrite)
-    return build_report(out)
+    ambiguity = _is_ambiguity(document)
+    if ambiguity and overrides:
+        raise ParameterError(str(path), "--set", "no overrides for an ambiguity file "
+                             "(edit the file)", list(overrides))
+    experiment = None if ambiguity else experiment_from_dict(
+        apply_overrides(document, overrides, str(path)), source=path)
+    inputs = {"command": "run", "document": document, "overrides": list(overrides),
+              "algorithms": list(algorithms or []), "realisations": int(realisations),
+              "scene": _scene_digest(path, document.get("scene"))}
+    say = (lambda message: print(message, file=sys.stderr, flush=True)) if progress else None
+    with WorkFolder(out, inputs, command="run", log=say) as work:
+        folder = work.file(RUN_FOLDER)
+        folder.mkdir(exist_ok=True)
+        run = RunFolder(folder, overwrite=True, work=work)
+        if experiment is None:
+            _ambiguity(run, path, document, progress)
+        else:
+            _experiment(run, experiment, algorithms, realisations, progress)
+        run.record.setdefault("title", document.get("name") or path.stem)
+        run.record.setdefault("description", document.get("description", ""))
+        run.record["source"] = str(path.resolve())
+        if work.resumed:
+            run.record["resumed"] = list(work.resumed)
+        write_json(run.record, folder / RUN_RECORD, overwrite=True)
+        report = build_report(folder)
+        work.move_folder(folder, out, overwrite=overwrite, last=(RUN_RECORD, report.name))
+        work.remove()
+    return out / report.name
+
+
+RUN_FOLDER = "run"
+"""Sub-folder of a ``mitsar run``'s work folder (:class:`mitsar.io.WorkFolder`) where the run
+is made; moved into the output folder when finished."""
+
+
+def _scene_digest(path: Path, scene: Any) -> str | None:
+    """The content hash of an experiment's scene file (a canned scene: its name), for the
+    inputs of a resumable run."""
+    if not isinstance(scene, str):
+        return None
+    for candidate in (Path(scene), path.parent / scene):
+        digest = file_digest(candidate)
+        if digest:
+            return digest
+    return scene
 
 
 def _ambiguity(run: RunFolder, path: Path, document: dict[str, Any], progress: bool) -> None:
@@ -195,9 +246,12 @@ def _experiment(run: RunFolder, experiment: Experiment, algorithms: Sequence[str
         run.record["tables"].append(_montecarlo_table(summary, realisations,
                                                       experiment.background))
         for algorithm in chosen:
-            cuts = montecarlo.realisation_cuts(experiment, algorithm, min(realisations, 5))
             file = f"montecarlo/cuts_{algorithm}.png"
-            montecarlo.plot_realisation_cuts(cuts, run.out / file, overwrite=True)
+            if not run.stage_done(f"figure {file}", [file]):  # ~20 s an algorithm
+                cuts = montecarlo.realisation_cuts(experiment, algorithm, min(realisations, 5))
+                montecarlo.plot_realisation_cuts(cuts, run.out / file, overwrite=True)
+                if run.work is not None:
+                    run.work.mark(f"figure {file}")
             run.record["figures"].append({
                 "file": file, "title": f"Realisations, {algorithm.upper()}",
                 "caption": "range and azimuth cuts of several realisations over the response "
@@ -222,14 +276,19 @@ def _passes(run: RunFolder, experiment: Experiment, algorithms: Sequence[str], s
     algorithm on the experiment's grid and measured as a one-pass run (:func:`pass_files`);
     metrics, steps and figures named by pass, a table of the passes and a figure of their
     tracks."""
-    start = time.perf_counter()
-    raws = simulate_passes(experiment, progress=progress, scene=scene)
-    run.step("simulate", start)
+    names = [pass_files(index).raw for index in range(len(experiment.passes))]
+    raws = run.reuse("simulate passes", names)
+    if raws is None:
+        start = time.perf_counter()
+        raws = simulate_passes(experiment, progress=progress, scene=scene)
+        run.step("simulate", start)
+        for raw, name in zip(raws, names, strict=True):
+            run.product(raw, name)
+        raws = run.finished("simulate passes", names, ["simulate"]) or raws
     rows, summary = [], []
     for index, raw in enumerate(raws):
         files = pass_files(index)
         single = pass_experiment(experiment, index)
-        run.product(raw, files.raw)
         marks = (len(run.record["figures"]), len(run.record["warnings"]))
         run_pipeline(run, single, algorithms, raw=raw, scene=scene, progress=progress,
                      files=files, after_simulation=None if index else (
@@ -275,15 +334,20 @@ def _combined(run: RunFolder, experiment: Experiment, raws: Sequence[Any],
             run.warn(f"passes: {algorithm}: not combined (back-projection only: -a bpa)")
             continue
         options = dataclasses.replace(experiment.focus, algorithm=algorithm, autofocus=None)
-        start = time.perf_counter()
-        try:
-            image = run_focus_passes(list(raws), options, progress=progress)
-        except (ParameterError, MitsarError) as error:
-            run.warn(f"passes: {algorithm}: not combined: {error}")
-            continue
-        label = f"{algorithm} passes"
-        run.step(f"focus {label}", start)
-        run.product(image, COMBINED_IMAGE.format(algorithm=algorithm))
+        label, file = f"{algorithm} passes", COMBINED_IMAGE.format(algorithm=algorithm)
+        reused = run.reuse(f"focus {file}", [file])
+        if reused is not None:
+            image = reused[0]
+        else:
+            start = time.perf_counter()
+            try:
+                image = run_focus_passes(list(raws), options, progress=progress)
+            except (ParameterError, MitsarError) as error:
+                run.warn(f"passes: {algorithm}: not combined: {error}")
+                continue
+            run.step(f"focus {label}", start)
+            run.product(image, file)
+            image = (run.finished(f"focus {file}", [file], [f"focus {label}"]) or [image])[0]
         figure, ax = plt.subplots(figsize=(7, 6), layout="constrained")
         plot_image(image, ax=ax, marks=target_marks(image))
         run.figure(figure, f"image_{algorithm}_passes.png",
