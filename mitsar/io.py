@@ -662,7 +662,8 @@ class WorkFolder:
     crash) the command skips what is marked finished; with other inputs the folder is removed
     and the command starts over, and says so. Nothing is written at the destination until the
     command moves its result there (:meth:`move_file`, :meth:`move_folder`) and removes the
-    folder (:meth:`remove`); a failure leaves the folder for the next run to resume.
+    folder (:meth:`remove`); a failure leaves the folder for the next run to resume, unless
+    nothing was finished yet (a refused input leaves nothing behind).
 
     Parameters
     ----------
@@ -704,7 +705,22 @@ class WorkFolder:
         return self
 
     def __exit__(self, kind: Any, error: Any, trace: Any) -> bool:
+        if kind is not None and self.path.is_dir() and not self._progress():
+            self.remove()  # refused or stopped before anything was finished: nothing to resume
         self.unlock()
+        return False
+
+    def _progress(self) -> bool:
+        """True when something is finished here or in a work folder nested in this one (the
+        raw product's chunks inside ``mitsar run``'s)."""
+        if self.finished:
+            return True
+        for manifest in self.path.rglob(MANIFEST):
+            try:
+                if json.loads(manifest.read_text(encoding="utf-8")).get("finished"):
+                    return True
+            except (OSError, ValueError, AttributeError):
+                continue
         return False
 
     def open(self) -> None:

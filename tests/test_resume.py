@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from mitsar.cli import main
-from mitsar.errors import MitsarError
+from mitsar.errors import MitsarError, MitsarWarning
 from mitsar.experiment.examples import example_path
 from mitsar.io import (
     INTERRUPT_ENV,
@@ -130,6 +130,18 @@ def test_simulate_starts_over_when_the_inputs_change(tmp_path: Path,
     assert raw.read_bytes() == fresh.read_bytes()
     assert load(raw).attrs["seed"] == 7
     assert not work_folder_path(raw).exists()
+
+
+def test_refused_simulate_leaves_nothing(tmp_path: Path) -> None:
+    """Inputs refused before or after the chunks (here: every echo zero, found after the last
+    chunk) leave neither the product nor a work folder: there is nothing to resume."""
+    raw = tmp_path / "raw.nc"
+    behind = ["--set", "targets.0.position=[15.0,-8.0,0.0]",
+              "--set", "background.center=[15.0,-8.0,0.0]"]
+    with pytest.warns(MitsarWarning, match="behind the antenna"):
+        assert main(["simulate", POINT, "--set", "trajectory.duration=0.2", *behind, "-o",
+                     str(raw), "-q"]) == 2
+    assert sorted(p.name for p in tmp_path.iterdir()) == []
 
 
 def test_run_resumes_by_stage(tmp_path: Path) -> None:

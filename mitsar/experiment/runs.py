@@ -28,7 +28,7 @@ import numpy as np
 import xarray as xr
 from tqdm.auto import tqdm
 
-from mitsar.errors import MitsarError, MitsarWarning, ParameterError
+from mitsar.errors import MemoryBudgetError, MitsarError, MitsarWarning, ParameterError
 from mitsar.experiment.options import PASS_SEED_RULE, Experiment, FocusOptions, MetricsOptions
 from mitsar.focus.dispatch import focus
 from mitsar.io import (
@@ -345,12 +345,17 @@ def simulate_to(experiment: Experiment, path: str | os.PathLike, overwrite: bool
             produced = _traced_chunks(experiment, total, chunk_sweeps, first, progress)
         else:
             produced = _analytic_chunks(experiment, chunk_sweeps, first, progress)
-        for index, chunk in produced:
-            save(chunk, work.file(_chunk_file(index)), overwrite=True)
-            work.mark(_chunk_key(index), {"sweeps": int(chunk.sizes["sweep"]),
-                                          "zero": not bool(np.any(chunk["raw"].values)),
-                                          "variables": list(map(str, chunk.variables)),
-                                          **_counters(chunk)})
+        try:
+            for index, chunk in produced:
+                save(chunk, work.file(_chunk_file(index)), overwrite=True)
+                work.mark(_chunk_key(index), {"sweeps": int(chunk.sizes["sweep"]),
+                                              "zero": not bool(np.any(chunk["raw"].values)),
+                                              "variables": list(map(str, chunk.variables)),
+                                              **_counters(chunk)})
+        except ParameterError as error:  # the inputs refused (all echoes zero): none to resume
+            if not isinstance(error, MemoryBudgetError):
+                work.remove()
+            raise
         return _assemble(work, experiment, path, count, chunk_sweeps, overwrite)
 
 
