@@ -6,8 +6,8 @@ control volume"):
 1. **the volume**: by default (:func:`map_grid`) the box around the *lit* surfaces of the scene,
    the surface samples (:func:`mitsar.scene.surfaces.sample_surface_points`) that some antenna
    position of the passes has in its beam, unoccluded (:func:`mitsar.features.truth.
-   observe_points`), padded by one resolution cell; voxel steps of half the resolution cell
-   along each world axis (below);
+   observe_points`), padded by two resolution extents (eq. M1); voxel steps of half the
+   resolution cell along each world axis (below);
 2. **the resolution cell** (:func:`map_resolution`) at the volume's centre, seen from the
    passes: range ``rho_r = c / (2 B)`` along the line of sight ``w_r``; the processed azimuth
    resolution ``rho_a`` along the track's component normal to it, ``w_a``; the elevation
@@ -288,7 +288,7 @@ def lit_bounds(raws: Any, scene: Any, spacing: float = 0.1, *, seed: int = 0
 def map_grid(raws: Any, scene: Any, *, azimuth_resolution: float | None = None,
              step: Any = None, margin: Any = None, seed: int = 0,
              windows: dict[str, str | None] | None = None) -> VolumeGrid:
-    """Default volume of a map: the lit surfaces' box padded by a resolution cell.
+    """Default volume of a map: the lit surfaces' box padded by two resolution extents.
 
     Parameters
     ----------
@@ -301,8 +301,9 @@ def map_grid(raws: Any, scene: Any, *, azimuth_resolution: float | None = None,
         Voxel step along x, y, z [m]; default half the cut width ``c_d`` (eq. M2) at the lit
         box's centre.
     margin : float or sequence of 3 float, optional
-        Padding of the lit box along x, y, z [m]; default the resolution extent ``rho_d``
-        (eq. M1).
+        Padding of the lit box along x, y, z [m]; default twice the resolution extent
+        ``rho_d`` (eq. M1): a scatterer on the lit box's edge keeps its main lobe and first
+        sidelobes inside, so its cluster is not cut.
     seed : int
         Seed of the surface sampler (analytic shapes).
     windows : dict, optional
