@@ -412,13 +412,51 @@ def _traced_chunks(experiment: Experiment, total: int, chunk_sweeps: int, first:
         return
     scene = load_scene(experiment.scene)
     whole = experiment.simulation.sweeps is not None
+    analytic = not whole and (bool(experiment.targets) or experiment.background is not None)
     for index in tqdm(range(first, count), disable=not progress or count == 1,
                       desc="simulate (traced)", unit="chunk", initial=first, total=count):
         chunked = experiment if whole else dataclasses.replace(
             experiment, simulation=dataclasses.replace(
                 experiment.simulation,
                 sweeps=slice(index * chunk_sweeps, min((index + 1) * chunk_sweeps, total))))
-        yield index, _simulate(chunked, progress and count == 1, scene, empty="ignore")
+        if analytic:
+            yield index, _traced_with_analytic(chunked, index, chunk_sweeps, scene,
+                                               progress and count == 1)
+        else:
+            yield index, _simulate(chunked, progress and count == 1, scene, empty="ignore")
+
+
+def _traced_with_analytic(experiment: Experiment, index: int, chunk_sweeps: int, scene: Any,
+                          progress: bool) -> xr.Dataset:
+    """Chunk ``index`` of a scene experiment with analytic targets or background: what
+    :func:`mitsar.simulate_scene` makes of those sweeps (traced samples, plus the analytic
+    ones, plus the receiver noise, in that order), with the analytic part of this chunk only
+    (:func:`mitsar.raw.analytic.stream_point_targets`, earlier chunks' draws made and their
+    echoes skipped) instead of the whole acquisition's for every chunk."""
+    where = str(experiment.source or "experiment")
+    noise = bool(experiment.simulation.resolve(where).noise)
+    quiet = dataclasses.replace(experiment, targets=(), background=None,
+                                simulation=dataclasses.replace(experiment.simulation,
+                                                               noise=False))
+    raw = _simulate(quiet, progress, scene, empty="ignore")
+    seed = int(raw.attrs["seed"])  # the trace request's (the scene's integrator may set it)
+    chunks = stream_point_targets(
+        experiment.radar, experiment.trajectory, experiment.look, experiment.targets,
+        background=experiment.background, seed=seed, rvp=bool(raw.attrs["rvp"]),
+        normalized=bool(raw.attrs["normalized"]), navigation=experiment.navigation,
+        sweeps_per_chunk=chunk_sweeps, first_chunk=index)
+    echoes = next(chunks)
+    chunks.close()
+    if not np.array_equal(echoes["sweep"].values, raw["sweep"].values):
+        raise MitsarError(f"{where}: the analytic chunk {index} does not cover the traced "
+                          "sweeps (report this)")
+    raw["raw"] = raw["raw"].copy(data=raw["raw"].values + echoes["raw"].values)
+    raw.attrs["simulator"] = f"{raw.attrs['simulator']} + analytic point targets"
+    raw.attrs["analytic_config"] = echoes.attrs.get("config", "{}")
+    if noise:
+        _add_noise(raw, experiment.radar, seed)
+    raw.attrs.update(_experiment_attrs(experiment))  # the targets, for metrics and figures
+    return raw
 
 
 def _assemble(work: WorkFolder, experiment: Experiment, path: Path, count: int,
