@@ -331,3 +331,27 @@ def test_a_shape_without_a_radar_material_is_reported(tmp_path):
     with pytest.warns(UserWarning, match="plain_floor"):
         hist = trace(RADAR, track, LOOK, str(scene))
     assert np.abs(hist["histogram"].values).max() == 0.0
+
+
+def test_strided_sweeps_record_their_pulse_rate():
+    """simulate_scene(sweeps=slice(0, None, 4)) holds every 4th sweep: the product records
+    sweep_stride = 4, so the focusers take PRF/4 (without it BPA chose its Doppler band at the
+    full PRF and misfocused a corner to coherence 0.29 with the full-rate image); uneven
+    selections are said."""
+    import warnings as _warnings
+
+    from mitsar.errors import MitsarWarning
+    from mitsar.products.raw import sweep_rate
+
+    radar = mitsar.Radar()
+    track = mitsar.Trajectory.linear([14.8, 1.4, 4.5], [0.5, 0.0, 0.0], 0.2)
+    look = mitsar.Look(55.7)
+    raw = mitsar.simulate_scene(radar, track, look, "point_target", sweeps=slice(0, None, 4))
+    assert raw.attrs["sweep_stride"] == 4 and sweep_rate(raw) == radar.prf / 4
+    whole = mitsar.simulate_scene(radar, track, look, "point_target", sweeps=slice(0, 40))
+    assert "sweep_stride" not in whole.attrs
+    with _warnings.catch_warnings(record=True) as caught:
+        _warnings.simplefilter("always")
+        mitsar.simulate_scene(radar, track, look, "point_target", sweeps=[0, 1, 5])
+    assert any(issubclass(w.category, MitsarWarning) and "evenly" in str(w.message)
+               for w in caught)

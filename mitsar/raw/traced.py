@@ -100,7 +100,8 @@ def trace(radar: Radar, trajectory: Trajectory, look: Look, scene: Any, *,
     product = make_histogram_product(
         np.concatenate(parts, axis=0), run.radar, run.look, sweeps, run.ranges,
         *run.geometry_of(sweeps), rvp=run.config.rvp, normalized=run.config.normalized,
-        first_index=int(run.grid[0]), attrs=run.attrs())
+        first_index=int(run.grid[0]), attrs={**run.attrs(),
+                                             **_sweep_stride("trace", sweeps, run.radar)})
     if run.channel is not None:  # one channel of several: its phase centres travel with it
         transmitters, receivers = run.radar.channel_offsets()
         product.attrs["channel"] = run.channel
@@ -374,6 +375,24 @@ def simulate_scene(radar: Radar, trajectory: Trajectory, look: Look, scene: Any,
         samples += thermal_noise(radar, config.seed, sweeps)
     if config.noise:
         attrs.update(noise_power=radar.noise_power, noise_seed=int(config.seed))
+    attrs.update(_sweep_stride("simulate_scene", sweeps, radar))
     recorded, true = run.geometry_of(sweeps)
     return make_raw_product(samples, radar, look, recorded, rvp=config.rvp, attrs=attrs,
                             true_geometry=true, sweeps=sweeps)
+
+
+def _sweep_stride(where: str, sweeps: NDArray, radar: Radar) -> dict[str, int]:
+    """``{"sweep_stride": s}`` for sweeps every ``s``-th sweep of the acquisition (``s > 1``):
+    the focusers then take the product's pulse rate as PRF/s (:func:`mitsar.products.raw.
+    sweep_rate`; without it BPA selects its Doppler band at the full PRF and misfocuses).
+    Sweeps that are not evenly spaced are said (:class:`MitsarWarning`): the focusers assume
+    one pulse rate."""
+    steps = np.diff(np.asarray(sweeps))
+    if len(steps) == 0 or radar.is_tdm:  # TDM-MIMO: channel_view gives each slot's stride
+        return {}
+    if np.all(steps == steps[0]):
+        return {"sweep_stride": int(steps[0])} if steps[0] > 1 else {}
+    warnings.warn(f"{where}: the sweeps traced are not evenly spaced (steps {int(steps.min())} "
+                  f"to {int(steps.max())}): the focusers assume one pulse rate, so focus "
+                  "a contiguous or evenly strided selection", MitsarWarning, stacklevel=3)
+    return {}
