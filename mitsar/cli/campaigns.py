@@ -8,6 +8,7 @@ import json
 from pathlib import Path
 
 from mitsar.ambiguity.sweep import is_ambiguity_document, run_ambiguity_sweep
+from mitsar.checks import integer
 from mitsar.cli.common import log
 from mitsar.errors import MitsarError
 from mitsar.experiment import montecarlo
@@ -24,23 +25,24 @@ def cmd_montecarlo(args: argparse.Namespace) -> int:
     if out.exists() and not out.is_dir():
         raise ProductFileError(f"{out}: exists and is not a folder (-o names the Monte Carlo "
                                "folder; choose another name)")
-    log(args, f"Monte Carlo: {args.realisations} realisations x {', '.join(args.algorithms)}")
+    log(args, f"Monte Carlo: {args.realisations} realisations x {', '.join(args.algorithms)}"
+              f"; each simulated, focused and measured, then the table"
+              + (f" and cut figures (--cuts {args.cuts})" if args.cuts else ""))
+    integer("montecarlo", "--cuts", args.cuts, 0)
     experiment = load_experiment(args.experiment, args.set)
     summary = montecarlo.run(experiment, args.realisations, args.algorithms, out_dir=out,
                              resume=not args.restart, progress=not args.quiet,
                              scheduler=args.scheduler, workers=args.workers)
-    print(montecarlo.format_table(summary))
+    print(montecarlo.format_table(summary), flush=True)
     if int(summary["count"].max()) == 0:
         reasons = json.loads(summary.attrs.get("failures", "{}") or "{}")
         first = next(iter(reasons.items()), ("", "unknown"))
         raise MitsarError(f"montecarlo: no realisation of {args.experiment} could be measured, "
                           f"nothing to average; seed {first[0]}: {first[1]}")
     if args.cuts:
-        for algorithm in args.algorithms:
-            cuts = montecarlo.realisation_cuts(experiment, algorithm, args.cuts)
-            figure = montecarlo.plot_realisation_cuts(cuts, out / f"cuts_{algorithm}.png",
-                                                      overwrite=True)
-            log(args, f"wrote {figure}")
+        figures = montecarlo.draw_cuts(experiment, args.algorithms, args.cuts, out,
+                                       progress=not args.quiet)
+        log(args, f"cut figures: {', '.join(str(f) for f in figures)}")
     return 0
 
 
@@ -65,6 +67,6 @@ def cmd_sweep(args: argparse.Namespace) -> int:
                       algorithms=args.algorithms, seed=args.seed, overrides=args.set,
                       scheduler=args.scheduler, workers=args.workers, restart=args.restart,
                       progress=not args.quiet)
-    log(args, f"wrote {out / 'sweep.nc'}, {out / 'sweep.csv'} and figures/: "
+    log(args, f"sweep table {out / 'sweep.nc'}, {out / 'sweep.csv'} and figures/: "
               f"{table.attrs['runs']} runs, {table.attrs['failed_runs']} failed")
     return 0

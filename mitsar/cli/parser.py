@@ -73,8 +73,9 @@ def _add_scheduler(sub: argparse.ArgumentParser) -> None:
     """``--scheduler`` and ``--workers`` of the Dask campaigns."""
     sub.add_argument("--scheduler", metavar="ADDRESS",
                      help="Dask scheduler: an address (tcp://host:8786), 'local[:N]' or "
-                     "'inline' (default: $MITSAR_DASK_SCHEDULER, else a local cluster with one "
-                     "worker per core)")
+                     "'inline' (default: $MITSAR_DASK_SCHEDULER, else 'auto': this process, or a "
+                     "local cluster with one worker per core when the estimated cost pays for "
+                     "its start-up)")
     sub.add_argument("--workers", type=int, metavar="N",
                      help="worker processes of the local cluster (default: one per core)")
 

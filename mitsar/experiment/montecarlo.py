@@ -14,19 +14,26 @@ fingerprint of the configuration. A new run with ``resume=True`` skips the seeds
 and refuses a file made with another configuration. The summary is written to
 ``out_dir/summary.nc`` and ``out_dir/summary.txt``.
 
-The realisations are the tasks of a campaign (:mod:`mitsar.experiment.campaign`): in this process
-by default, or on a Dask cluster with ``scheduler`` (``mitsar montecarlo`` uses a local cluster
-unless told otherwise). A realisation that raises is recorded with its error (``errors`` in the
+The realisations are the tasks of a campaign (:mod:`mitsar.experiment.campaign`): by default in
+this process or on a local Dask cluster, whichever the estimated cost favours
+(:func:`estimate_run_seconds`, :func:`~mitsar.experiment.campaign.choose_scheduler`), or where
+``scheduler`` says. A realisation that raises is recorded with its error (``errors`` in the
 record, its metrics left out of the statistics) and is tried again by the next resumed run.
+
+Cuts (paper Figs. 8-9, :func:`draw_cuts`): the nominal response and a few realisations are
+simulated once each and focused by every algorithm; the figures' inputs are hashed into
+``out_dir/cuts.json``, so a rerun with nothing new draws nothing.
 """
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import hashlib
 import json
 import math
 import os
+import sys
 import warnings
 from collections.abc import Sequence
 from pathlib import Path
@@ -40,7 +47,7 @@ from tqdm.auto import tqdm
 from mitsar.checks import integer
 from mitsar.errors import MitsarError, ParameterError
 from mitsar.experiment import runs
-from mitsar.experiment.campaign import INLINE, Task, run_tasks
+from mitsar.experiment.campaign import Task, announce, fingerprint, run_tasks
 from mitsar.experiment.coverage import check_target_in_grid
 from mitsar.experiment.loading import load_experiment
 from mitsar.experiment.options import Experiment
@@ -48,8 +55,10 @@ from mitsar.experiment.paper import paper_table
 from mitsar.focus.dispatch import ALGORITHMS
 from mitsar.focus.grid import equivalent_position
 from mitsar.io import save
+from mitsar.model.signal import sweep_count
 from mitsar.plots.figures import save_figure
 from mitsar.quality.impulse import measure_impulse_response
+from mitsar.raw.analytic import background_cell_area
 from mitsar.version import __version__
 
 RECORD_FILE = "montecarlo.json"
@@ -57,6 +66,22 @@ SUMMARY_FILE = "summary.nc"
 TABLE_FILE = "summary.txt"
 DIRECTIONS = ("range", "azimuth")
 METRICS = ("irw_cells", "pslr_db", "islr_db")
+CUTS_RECORD = "cuts.json"
+
+SIMULATE_SECONDS_PER_ECHO = 1e-8
+"""Analytic simulation cost per sweep x sample x scatterer x channel [s]: the paper's point target
+(600 sweeps x 660 samples x 1074 scatterers) simulates in 3.8-4.9 s on a loaded 2-core
+machine (issue 27)."""
+
+FOCUS_SECONDS_PER_PIXEL_SWEEP = 1e-8
+"""Focusing cost per pixel x sweep x channel [s] (back-projection, the slowest: 0.16-0.25 s for
+the paper's 121 x 201 grid and 600 sweeps)."""
+
+MEASURE_SECONDS = 0.6
+"""Cost of measuring one image's impulse response [s] (0.56-1.8 s for the paper's grid)."""
+
+SCENE_RUN_SECONDS = 60.0
+"""Assumed cost of simulating a ray-traced scene [s]: not estimated from its parameters."""
 
 
 def _fingerprint(config: dict) -> str:
@@ -146,6 +171,64 @@ def measure_realisation(experiment: Experiment, seed: int, algorithms: Sequence[
     return entry
 
 
+def estimate_run_seconds(experiment: Experiment, algorithms: Sequence[str]) -> float:
+    """Rough cost of :func:`measure_realisation` on this experiment [s], from its parameters only.
+
+    Simulation: sweeps x samples x (targets + background scatterers) x channels x
+    :data:`SIMULATE_SECONDS_PER_ECHO` (a scene: :data:`SCENE_RUN_SECONDS`); per algorithm:
+    pixels x sweeps x channels x :data:`FOCUS_SECONDS_PER_PIXEL_SWEEP` + :data:`MEASURE_SECONDS`.
+    It chooses where a campaign runs (:func:`mitsar.experiment.campaign.choose_scheduler`); the
+    constants are measured on a loaded 2-core machine, so within a factor of 2 or so.
+
+    Parameters
+    ----------
+    experiment : Experiment
+    algorithms : sequence of str
+
+    Returns
+    -------
+    float
+        Seconds (> 0).
+    """
+    radar = experiment.radar
+    sweeps = max(sweep_count(radar, experiment.trajectory.duration), 1)
+    channels = max(int(getattr(radar, "channel_count", 1) or 1), 1)
+    if experiment.scene is not None:
+        simulate = SCENE_RUN_SECONDS
+    else:
+        scatterers = len(experiment.targets)
+        background = experiment.background
+        if background is not None:
+            with contextlib.suppress(ValueError, ZeroDivisionError, AttributeError):
+                mid = experiment.trajectory.position(experiment.trajectory.duration / 2)
+                area = background_cell_area(radar, background, np.asarray(mid).reshape(3))
+                scatterers += background.scatterer_count(area)
+        simulate = (sweeps * radar.samples_per_sweep * max(scatterers, 1) * channels
+                    * SIMULATE_SECONDS_PER_ECHO)
+    per_algorithm = (_pixel_count(experiment.focus.grid) * sweeps * channels
+                     * FOCUS_SECONDS_PER_PIXEL_SWEEP + MEASURE_SECONDS)
+    return float(simulate + len(algorithms) * per_algorithm)
+
+
+def _pixel_count(grid: dict | None) -> int:
+    """Pixels of a ``[focus.grid]`` table (an axis it leaves to the algorithm: 256)."""
+    if not grid:
+        return 256 * 256
+
+    def count(axis: Any) -> int:
+        if (isinstance(axis, list | tuple) and len(axis) == 3
+                and all(isinstance(v, int | float) for v in axis) and axis[2]):
+            return max(int((axis[1] - axis[0]) / axis[2]) + 1, 1)
+        if isinstance(axis, list | tuple) and axis:
+            return len(axis)
+        return 256
+
+    if "points" in grid:
+        return max(len(grid["points"]), 1)
+    axes = [grid[k] for k in ("along_track", "slant_range", "u", "v", "x", "y", "z") if k in grid]
+    return int(np.prod([count(a) for a in axes])) if axes else 256 * 256
+
+
 def _measure(image: xr.Dataset, target: Sequence[float], islr_extent: str | float) -> dict:
     metrics = measure_impulse_response(image, equivalent_position(image, target),
                                        islr_extent=islr_extent)
@@ -159,7 +242,7 @@ def run(experiment: Any, realisations: int = 10,
         algorithms: Sequence[str] = ("bpa", "rda", "wda", "fsa"), *,
         first_seed: int | None = None, out_dir: str | os.PathLike | None = None,
         resume: bool = True, progress: bool = True, target: Sequence[float] | None = None,
-        islr_extent: str | float | None = None, scheduler: str | None = INLINE,
+        islr_extent: str | float | None = None, scheduler: str | None = None,
         workers: int | None = None, client: Any = None) -> xr.Dataset:
     """Monte Carlo over background realisations of an experiment (module docstring).
 
@@ -181,14 +264,15 @@ def run(experiment: Any, realisations: int = 10,
     resume : bool
         Continue a run recorded in ``out_dir`` (False: start afresh, replacing it).
     progress : bool
-        Show a progress bar.
+        Say where the realisations run and what is written (stderr), with a progress bar.
     target : sequence of 3 floats, optional
         World position of the measured target (default: the experiment's).
     islr_extent : str or float, optional
         ISLR sidelobe extent (default: the experiment's, i.e. "paper" = +-5 cells).
     scheduler : str, optional
-        Where the realisations run (:func:`mitsar.experiment.campaign.dask_client`): "inline"
-        (default, this process), None (``$MITSAR_DASK_SCHEDULER``, else a local cluster),
+        Where the realisations run (:func:`mitsar.experiment.campaign.dask_client`): None
+        (default: ``$MITSAR_DASK_SCHEDULER``, else "auto": this process or a local cluster by
+        the estimated cost, :func:`estimate_run_seconds`), "inline" (this process),
         "local[:N]" or a Dask scheduler address. The numbers do not depend on it.
     workers : int, optional
         Workers of a local cluster (default: one per CPU core).
@@ -251,7 +335,8 @@ def run(experiment: Any, realisations: int = 10,
     tasks = [Task(_key(seed), (experiment, seed, algorithms, target, islr_extent))
              for seed in seeds]
     run_tasks(measure_realisation, tasks, store, scheduler=scheduler, workers=workers,
-              client=client, progress=progress, desc="montecarlo")
+              client=client, progress=progress, desc="montecarlo", what="realisations",
+              task_seconds=estimate_run_seconds(experiment, algorithms))
     records = [r for r in store.records if r["seed"] in set(seeds)]
     for seed in seeds:
         if str(seed) in store.errors and seed not in {r["seed"] for r in records}:
@@ -269,6 +354,8 @@ def run(experiment: Any, realisations: int = 10,
     if experiment.background is not None:
         summary.attrs["background_cell_rcs_db"] = float(experiment.background.cell_rcs_db)
     if out_dir is not None:
+        announce(progress, f"montecarlo: table of {len(seeds)} realisations -> "
+                           f"{Path(out_dir) / SUMMARY_FILE}, {TABLE_FILE}")
         save(summary, Path(out_dir) / SUMMARY_FILE, overwrite=True)
         table = format_table(summary)
         tmp = Path(out_dir) / f".{TABLE_FILE}.{os.getpid()}.tmp"
@@ -380,7 +467,8 @@ def realisation_cuts(experiment: Any, algorithm: str = "bpa", realisations: int 
     """Range and azimuth cuts through the target for a few realisations and the nominal case.
 
     The nominal response is the experiment without its background (absorbing background);
-    each realisation is the experiment with seed ``first_seed + i`` (paper Figs. 8-9).
+    each realisation is the experiment with seed ``first_seed + i`` (paper Figs. 8-9). For
+    several algorithms, :func:`realisations_cuts` simulates each realisation once.
 
     Returns
     -------
@@ -389,6 +477,35 @@ def realisation_cuts(experiment: Any, algorithm: str = "bpa", realisations: int 
         (list) of dicts with ``range`` and ``azimuth`` cuts in dB relative to the nominal peak;
         ``seeds``.
     """
+    return realisations_cuts(experiment, [algorithm], realisations, first_seed,
+                             progress=False)[algorithm]
+
+
+def realisations_cuts(experiment: Any, algorithms: Sequence[str], realisations: int = 5,
+                      first_seed: int | None = None, progress: bool = True
+                      ) -> dict[str, dict[str, Any]]:
+    """:func:`realisation_cuts` for several algorithms, each realisation simulated once.
+
+    The nominal case and the ``realisations`` seeds are simulated one after another and each
+    raw product is focused by every algorithm (the simulation is most of the cost: 5
+    algorithms used to simulate every realisation 5 times).
+
+    Parameters
+    ----------
+    experiment : Experiment or path-like
+    algorithms : sequence of str
+    realisations : int
+        Realisations drawn (seeds ``first_seed + i``).
+    first_seed : int, optional
+        Default the experiment's ``[simulation] seed``.
+    progress : bool
+        A progress bar on stderr, one step a simulation.
+
+    Returns
+    -------
+    dict
+        :func:`realisation_cuts`'s dict, by algorithm.
+    """
     if not isinstance(experiment, Experiment):
         experiment = load_experiment(experiment)
     target = experiment.metrics_target()
@@ -396,10 +513,10 @@ def realisation_cuts(experiment: Any, algorithm: str = "bpa", realisations: int 
         raise ParameterError("montecarlo", "target", "a [metrics] target or a [[targets]] entry",
                              None)
     first_seed = experiment.simulation.seed if first_seed is None else int(first_seed)
-    focus_options = dataclasses.replace(experiment.focus, algorithm=algorithm)
+    options = {a: dataclasses.replace(experiment.focus, algorithm=a) for a in algorithms}
 
-    def cuts(exp: Any) -> tuple[dict, xr.Dataset]:
-        image = runs.run_focus(runs.run_simulation(exp), focus_options)
+    def cuts(raw: xr.Dataset, algorithm: str) -> tuple[dict, xr.Dataset]:
+        image = runs.run_focus(raw, options[algorithm])
         if image.attrs.get("grid_kind") != "slant":
             raise ParameterError("montecarlo", "focus.grid.kind", "a slant grid for the cuts",
                                  image.attrs.get("grid_kind"))
@@ -409,22 +526,70 @@ def realisation_cuts(experiment: Any, algorithm: str = "bpa", realisations: int 
         magnitude = np.abs(image["image"].values)
         return {"range": magnitude[row, :], "azimuth": magnitude[:, col]}, image
 
-    nominal, image = cuts(dataclasses.replace(experiment, background=None))
-    peak = max(nominal["range"].max(), 1e-300)
-    row_axis = image["azimuth"].values - image["azimuth"].values[np.argmax(nominal["azimuth"])]
-    col_axis = image["range"].values - image["range"].values[np.argmax(nominal["range"])]
     seeds = [first_seed + i for i in range(realisations)]
-    drawn = []
-    for seed in tqdm(seeds, desc=f"cuts {algorithm}", unit="realisation", leave=False):
-        exp = dataclasses.replace(experiment, simulation=dataclasses.replace(
-            experiment.simulation, seed=seed))
-        drawn.append(cuts(exp)[0])
+    trials = [dataclasses.replace(experiment, background=None)] + [
+        dataclasses.replace(experiment, simulation=dataclasses.replace(experiment.simulation,
+                                                                       seed=seed))
+        for seed in seeds]
+    drawn: dict[str, list[tuple[dict, xr.Dataset]]] = {a: [] for a in algorithms}
+    for trial in tqdm(trials, desc="cuts", unit="simulation", disable=not progress,
+                      file=sys.stderr):
+        raw = runs.run_simulation(trial)
+        for algorithm in algorithms:
+            drawn[algorithm].append(cuts(raw, algorithm))
+    out = {}
+    for algorithm in algorithms:
+        (nominal, image), *rest = drawn[algorithm]
+        peak = max(nominal["range"].max(), 1e-300)
+        azimuth = image["azimuth"].values
+        range_ = image["range"].values
+        row_axis = azimuth - azimuth[np.argmax(nominal["azimuth"])]
+        col_axis = range_ - range_[np.argmax(nominal["range"])]
 
-    def decibel(cut: dict) -> dict:
-        return {k: 20 * np.log10(np.maximum(v, 1e-300) / peak) for k, v in cut.items()}
+        def decibel(cut: dict, peak: float = peak) -> dict:
+            return {k: 20 * np.log10(np.maximum(v, 1e-300) / peak) for k, v in cut.items()}
 
-    return {"range_offset": col_axis, "azimuth_offset": row_axis, "nominal": decibel(nominal),
-            "realisations": [decibel(c) for c in drawn], "seeds": seeds, "algorithm": algorithm}
+        out[algorithm] = {"range_offset": col_axis, "azimuth_offset": row_axis,
+                          "nominal": decibel(nominal),
+                          "realisations": [decibel(c) for c, _ in rest], "seeds": seeds,
+                          "algorithm": algorithm}
+    return out
+
+
+def draw_cuts(experiment: Experiment, algorithms: Sequence[str], realisations: int,
+              out_dir: str | os.PathLike, progress: bool = True) -> list[Path]:
+    """Draw ``out_dir/cuts_ALGORITHM.png`` for every algorithm, unless already drawn.
+
+    The figures' inputs (the experiment, algorithms, realisations, mitsar version) are hashed
+    into ``out_dir/cuts.json``; when the hash matches and every figure is there nothing is
+    simulated (a rerun of a finished Monte Carlo). Else the cuts are computed
+    (:func:`realisations_cuts`, announced on stderr with a progress bar) and the figures
+    written.
+
+    Returns
+    -------
+    list of Path
+        The figures, one per algorithm.
+    """
+    folder = Path(out_dir)
+    figures = [folder / f"cuts_{algorithm}.png" for algorithm in algorithms]
+    key = fingerprint([experiment.config, list(algorithms), int(realisations), __version__])
+    record = folder / CUTS_RECORD
+    try:
+        stored = json.loads(record.read_text(encoding="utf-8")).get("fingerprint")
+    except (OSError, ValueError, AttributeError):
+        stored = None
+    if stored == key and all(f.is_file() for f in figures):
+        announce(progress, f"cuts: {len(figures)} figures up to date in {folder}, not redrawn")
+        return figures
+    announce(progress, f"cuts: drawing {len(figures)} figures of {realisations} realisations "
+                       f"and the nominal response ({realisations + 1} simulations, each "
+                       f"focused by {len(algorithms)} algorithms; --cuts 0 skips them)...")
+    cuts = realisations_cuts(experiment, algorithms, realisations, progress=progress)
+    for algorithm, figure in zip(algorithms, figures, strict=True):
+        plot_realisation_cuts(cuts[algorithm], figure, overwrite=True)
+    _write_atomic(record, {"fingerprint": key, "figures": [f.name for f in figures]})
+    return figures
 
 
 def plot_realisation_cuts(cuts: dict[str, Any], path: str | os.PathLike,

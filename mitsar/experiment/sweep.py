@@ -12,7 +12,9 @@ Realisation r of point i uses the seed :func:`~mitsar.experiment.campaign.task_s
 The table is an :class:`xarray.Dataset` with one dimension per varied key (named by the key),
 then ``realisation`` and ``algorithm``; it is written as ``sweep.nc`` and, one row per run and
 algorithm, ``sweep.csv``, with one figure per metric in ``figures/`` (docs/experiments.md
-§Campaigns).
+§Campaigns). The hash of what these outputs were made from (every task's key, inputs and status,
+and the sweep's arguments) is written last, to ``outputs.json``: a rerun that finds every run
+recorded and that hash unchanged rewrites nothing (a no-op rerun), and says so.
 
 Stages above this one add their own measurements of every point without being imported here
 (imports run down, docs/design.md §3): a :class:`PointMeasure` names a module-level function of
@@ -29,6 +31,7 @@ import itertools
 import json
 import math
 import os
+import sys
 import tomllib
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -38,12 +41,25 @@ from typing import Any
 import matplotlib.pyplot as plt
 import numpy as np
 import xarray as xr
+from tqdm.auto import tqdm
 
 from mitsar.checks import integer
 from mitsar.errors import ParameterError
-from mitsar.experiment.campaign import PointFolder, Task, fingerprint, run_tasks, task_seed
+from mitsar.experiment.campaign import (
+    PointFolder,
+    Task,
+    announce,
+    fingerprint,
+    run_tasks,
+    task_seed,
+)
 from mitsar.experiment.loading import apply_overrides, experiment_from_dict, read_toml
-from mitsar.experiment.montecarlo import DIRECTIONS, METRICS, measure_realisation
+from mitsar.experiment.montecarlo import (
+    DIRECTIONS,
+    METRICS,
+    estimate_run_seconds,
+    measure_realisation,
+)
 from mitsar.focus.dispatch import ALGORITHMS
 from mitsar.io import atomic_writer, save
 from mitsar.plots.figures import save_figure
@@ -55,6 +71,8 @@ __all__ = ["PointMeasure", "Variation", "measure_table", "parse_variation", "run
 TABLE_FILE = "sweep.nc"
 CSV_FILE = "sweep.csv"
 FIGURES_FOLDER = "figures"
+OUTPUTS_FILE = "outputs.json"
+"""Hash of what the table, CSVs and figures were made from, written after them."""
 QUANTITIES = tuple(f"{d}_{m}" for d in DIRECTIONS for m in METRICS) + ("peak_offset_m",
                                                                          "peak_db")
 """Measured quantities, one table variable each (dims: varied keys, realisation, algorithm)."""
@@ -102,6 +120,9 @@ class PointMeasure:
         The measured quantities, one table variable each (dims: varied keys, ``label``).
     units : str
         Units of the quantities.
+    seconds : float, optional
+        Rough cost of one measurement [s], for the choice of scheduler
+        (:func:`~mitsar.experiment.campaign.choose_scheduler`; None: unknown).
     """
 
     name: str
@@ -110,6 +131,7 @@ class PointMeasure:
     label: str
     quantities: tuple[str, ...]
     units: str = "1"
+    seconds: float | None = None
 
 
 def _toml_value(text: str) -> Any:
@@ -222,12 +244,13 @@ def run_sweep(experiment_path: str | os.PathLike, variations: Sequence[Variation
         ``--set`` changes applied to every point before the variations.
     scheduler, workers, client
         Where the runs go (:func:`mitsar.experiment.campaign.run_tasks`); default
-        ``$MITSAR_DASK_SCHEDULER``, else a local cluster.
+        ``$MITSAR_DASK_SCHEDULER``, else "auto": this process or a local cluster, by the
+        estimated cost (:func:`~mitsar.experiment.montecarlo.estimate_run_seconds`).
     restart : bool
         Forget the records of an earlier run in ``out_dir`` (default: finished points are
         reused, a rerun computes only the missing ones).
     progress, figures : bool
-        Progress bar; figures of each metric against the varied keys.
+        Phases and progress bars on stderr; figures of each metric against the varied keys.
     measures : sequence of PointMeasure
         Further measurements of every point (one task per point and measure), their
         quantities added to the table (:func:`measure_table`) and written to
@@ -298,10 +321,29 @@ def run_sweep(experiment_path: str | os.PathLike, variations: Sequence[Variation
             args = (None, document, source, run_seed, algorithms)
             tasks.append(Task(f"p{index:05d}-r{realisation:03d}", args,
                               fingerprint([document, run_seed, algorithms, __version__])))
+    every = tasks + [t for m in measures for t in extra[m.name]]
+    announce(progress, f"sweep: {len(points)} points validated, {len(every)} tasks "
+                       f"({len(tasks)} runs" + "".join(f", {len(extra[m.name])} {m.name}"
+                                                        for m in measures) + ")")
+    costs = ([estimate_run_seconds(nominal, algorithms)] * len(tasks) if images else []) + [
+        m.seconds for m in measures for _ in extra[m.name]]
+    known = [c for c in costs if c is not None]
     store = PointFolder(Path(out_dir), restart=restart)
-    records = run_tasks(_sweep_task, tasks + [t for m in measures for t in extra[m.name]],
-                        store, scheduler=scheduler, workers=workers, client=client,
-                        progress=progress, desc="sweep")
+    ran: list[str] = []
+    records = run_tasks(_sweep_task, every, store, scheduler=scheduler, workers=workers,
+                        client=client, progress=progress, desc="sweep",
+                        task_seconds=sum(known) / len(known) if known else None,
+                        on_record=lambda task, _: ran.append(task.key))
+    out = Path(out_dir)
+    outputs = fingerprint([[(t.key, t.inputs, (records.get(t.key) or {}).get("status"))
+                            for t in every], [v.key for v in variations], realisations,
+                           algorithms, names, images, figures, seed, source, list(overrides),
+                           __version__])
+    expected = [TABLE_FILE] + ([CSV_FILE] if images else []) + [
+        f"sweep_{m.name}.csv" for m in measures]
+    drawn = ([f"{FIGURES_FOLDER}/{q}.png" for q in QUANTITIES[:-1]] if images else []) + [
+        f"{FIGURES_FOLDER}/{q}.png" for m in measures for q in m.quantities]
+    up_to_date = not ran and _outputs_match(out, outputs, expected + (drawn if figures else []))
     parts = [sweep_table(variations, realisations, algorithms,
                          [records.get(t.key) for t in tasks], [t.args[3] for t in tasks])
              ] if images else []
@@ -316,7 +358,11 @@ def run_sweep(experiment_path: str | os.PathLike, variations: Sequence[Variation
                        campaign_seed=seed, experiment_source=source,
                        overrides=json.dumps(list(overrides)), mitsar_version=__version__,
                        experiment=json.dumps(config))
-    out = Path(out_dir)
+    if up_to_date:
+        announce(progress, f"sweep: {out / TABLE_FILE}, its CSV and figures are up to date, "
+                           "not rewritten")
+        return table
+    announce(progress, f"sweep: table -> {out / TABLE_FILE}, " + ", ".join(expected[1:]))
     save(table, out / TABLE_FILE, overwrite=True)
     csvs: dict[str, str] = {}
     if images:
@@ -331,11 +377,27 @@ def run_sweep(experiment_path: str | os.PathLike, variations: Sequence[Variation
         atomic_writer(out / name, True,
                       lambda tmp, csv=csv: tmp.write_text(csv, encoding="utf-8"))
     if figures:
-        if images:
-            plot_sweep(table, out / FIGURES_FOLDER)
-        for m in measures:
-            plot_measure(table, m, out / FIGURES_FOLDER)
+        announce(progress, f"sweep: drawing {len(drawn)} figures -> {out / FIGURES_FOLDER}...")
+        with tqdm(total=len(drawn), desc="figures", unit="figure", disable=not progress,
+                  file=sys.stderr) as bar:
+            if images:
+                plot_sweep(table, out / FIGURES_FOLDER, bar=bar)
+            for m in measures:
+                plot_measure(table, m, out / FIGURES_FOLDER, bar=bar)
+    atomic_writer(out / OUTPUTS_FILE, True, lambda tmp: tmp.write_text(
+        json.dumps({"fingerprint": outputs, "files": expected + (drawn if figures else [])})
+        + "\n", encoding="utf-8"))
     return table
+
+
+def _outputs_match(folder: Path, outputs: str, files: Sequence[str]) -> bool:
+    """Whether ``folder``'s outputs were made from ``outputs`` (:data:`OUTPUTS_FILE`) and exist."""
+    try:
+        stored = json.loads((folder / OUTPUTS_FILE).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return False
+    return (isinstance(stored, dict) and stored.get("fingerprint") == outputs
+            and all((folder / name).is_file() for name in files))
 
 
 def measure_table(variations: Sequence[Variation], measure: PointMeasure,
@@ -420,9 +482,10 @@ def sweep_table(variations: Sequence[Variation], realisations: int, algorithms: 
 
 
 def plot_measure(table: xr.Dataset, measure: PointMeasure, folder: Path,
-                 overwrite: bool = True) -> list[Path]:
+                 overwrite: bool = True, bar: Any = None) -> list[Path]:
     """One figure per quantity of a measure against the first varied key, a line per label
-    (and combination of the other varied keys; at most 8 lines)."""
+    (and combination of the other varied keys; at most 8 lines); ``bar`` (a tqdm bar) is
+    advanced by one a figure."""
     folder.mkdir(parents=True, exist_ok=True)
     keys = json.loads(table.attrs["varied"])
     first, others = keys[0], keys[1:]
@@ -445,14 +508,18 @@ def plot_measure(table: xr.Dataset, measure: PointMeasure, folder: Path,
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7)
         written.append(save_figure(figure, folder / f"{quantity}.png", overwrite=overwrite))
+        if bar is not None:
+            bar.update(1)
     return written
 
 
-def plot_sweep(table: xr.Dataset, folder: Path, overwrite: bool = True) -> list[Path]:
+def plot_sweep(table: xr.Dataset, folder: Path, overwrite: bool = True,
+               bar: Any = None) -> list[Path]:
     """One figure per measured quantity against the first varied key.
 
     A panel per algorithm; a line per combination of the other varied keys (at most 8 drawn);
-    markers at the mean over realisations, bars +- one standard deviation.
+    markers at the mean over realisations, bars +- one standard deviation. ``bar`` (a tqdm
+    bar) is advanced by one a figure.
     """
     folder.mkdir(parents=True, exist_ok=True)
     keys = json.loads(table.attrs["varied"])
@@ -483,4 +550,6 @@ def plot_sweep(table: xr.Dataset, folder: Path, overwrite: bool = True) -> list[
             if others:
                 ax.legend(fontsize=7)
         written.append(save_figure(figure, folder / f"{quantity}.png", overwrite=overwrite))
+        if bar is not None:
+            bar.update(1)
     return written
