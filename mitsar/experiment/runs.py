@@ -20,7 +20,7 @@ from __future__ import annotations
 import dataclasses
 import os
 import warnings
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -273,7 +273,7 @@ tracer's 128-sweep chunks, so that a traced product made chunk by chunk equals o
 
 def simulate_to(experiment: Experiment, path: str | os.PathLike, overwrite: bool = False,
                 progress: bool = False, chunk_sweeps: int = RESUME_CHUNK_SWEEPS,
-                log: Any = None) -> int:
+                log: Callable[[str], None] | None = None) -> int:
     """Simulate an experiment's raw product into a file or Zarr store, resumably.
 
     The acquisition is simulated ``chunk_sweeps`` sweeps at a time (a point-target experiment
@@ -546,7 +546,7 @@ def _empty_scene_message(attrs: Any) -> str:
 
 
 def _simulate_passes_to(experiment: Experiment, path: Path, overwrite: bool, progress: bool,
-                        log: Any) -> int:
+                        log: Callable[[str], None] | None) -> int:
     """:func:`simulate_to` of a multi-pass experiment: resumable pass by pass."""
     paths = [pass_path(path, index) for index in range(len(experiment.passes))]
     for each in paths:
