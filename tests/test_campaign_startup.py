@@ -86,6 +86,24 @@ def test_the_default_scheduler_is_chosen_by_the_estimated_cost():
     assert "in this process" in choice.reason and choice.inline_seconds < choice.cluster_seconds
 
 
+def test_a_worker_count_asks_for_a_local_cluster(tmp_path, monkeypatch):
+    """``--workers N`` without ``--scheduler`` keeps meaning a local cluster of N workers."""
+    asked = []
+
+    class Refused(Exception):
+        pass
+
+    def client(scheduler, workers):
+        asked.append((scheduler, workers))
+        raise Refused
+
+    monkeypatch.setattr(campaign, "dask_client", client)
+    with pytest.raises(Refused):
+        run_tasks(_square, [Task("t0", (0,)), Task("t1", (1,))], PointFolder(tmp_path),
+                  workers=3, progress=False)
+    assert asked == [("local:3", 3)]
+
+
 def test_a_small_monte_carlo_runs_in_this_process_and_says_so(tmp_path, monkeypatch, capsys):
     monkeypatch.setattr(campaign, "dask_client", _no_cluster)
     out = tmp_path / "mc"

@@ -403,7 +403,8 @@ def run_tasks(function: Callable[..., Any], tasks: Sequence[Task], store: Record
     scheduler, workers
         See :func:`dask_client`; ignored when ``client`` is given. ``"auto"`` (the default
         unless ``$MITSAR_DASK_SCHEDULER`` says otherwise) is :func:`choose_scheduler` on the
-        tasks left to run and ``task_seconds``.
+        tasks left to run and ``task_seconds``, or a local cluster of ``workers`` when a
+        worker count is given.
     client : distributed.Client, optional
         An existing client to submit to (e.g. one shared by several campaigns).
     progress : bool
@@ -445,6 +446,8 @@ def run_tasks(function: Callable[..., Any], tasks: Sequence[Task], store: Record
         raise ClusterStartError(f"{desc}: started while a worker process imports the main "
                                 "script: " + _guard_message(_main_file()))
     name = INLINE if client is not None else resolve_scheduler(scheduler)
+    if client is None and name == AUTO and workers is not None:
+        name = f"{LOCAL}:{workers}"  # a worker count asks for a local cluster of that size
     if client is None and name == AUTO:
         choice = choose_scheduler(len(todo), task_seconds, workers)
         name = choice.scheduler
