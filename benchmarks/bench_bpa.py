@@ -68,21 +68,26 @@ def main() -> None:
 
 def _focus_overhead(raw, side: int) -> None:  # noqa: ANN001
     """``mitsar.focus`` end to end against the kernel calls inside it (timed by wrapping the
-    kernel that :mod:`mitsar.focus.bpa` calls): whole beam on a ground grid."""
+    kernels that :mod:`mitsar.focus.bpa` calls): whole beam on a ground grid."""
     extent = 2.0
     step = extent / side
     axis = [-extent / 2, extent / 2 - step / 2, step]
     grid = PlaneGrid(origin=[15.0, 8.0, 0.0], axis_u=[1, 0, 0], axis_v=[0, 1, 0], u=axis,
                      v=axis)
     inside = []
+    kernels = {"backproject_drjit": bpa_module.backproject_drjit,
+               "backproject_tiled": bpa_module.backproject_tiled}  # focus() calls the latter
 
-    def timed_kernel(*arguments, **keywords):  # noqa: ANN002, ANN003, ANN202
-        start = time.perf_counter()
-        result = backproject_drjit(*arguments, **keywords)
-        inside.append(time.perf_counter() - start)
-        return result
+    def timed(kernel):  # noqa: ANN001, ANN202
+        def call(*arguments, **keywords):  # noqa: ANN002, ANN003, ANN202
+            start = time.perf_counter()
+            result = kernel(*arguments, **keywords)
+            inside.append(time.perf_counter() - start)
+            return result
+        return call
 
-    bpa_module.backproject_drjit = timed_kernel
+    for name, kernel in kernels.items():
+        setattr(bpa_module, name, timed(kernel))
     try:
         mitsar.focus(raw, grid=grid)  # warm-up
         inside.clear()
@@ -90,7 +95,8 @@ def _focus_overhead(raw, side: int) -> None:  # noqa: ANN001
         mitsar.focus(raw, grid=grid)
         total = time.perf_counter() - start
     finally:
-        bpa_module.backproject_drjit = backproject_drjit
+        for name, kernel in kernels.items():
+            setattr(bpa_module, name, kernel)
     print(f"  focus() end to end, {side}x{side} ground pixels, whole beam: {total:.3f} s, "
           f"kernel {sum(inside):.3f} s: {total / sum(inside):.2f}x the kernel")
 

@@ -1,48 +1,65 @@
-"""Exact back-projection throughput: mitsar's Dr.Jit kernel against FastSAR 0.1.8's CPU kernel.
+"""Exact back-projection end to end: ``mitsar.focus(raw, "bpa", grid)`` against FastSAR 0.1.8.
 
-Both back-project the same sweeps onto the same N x N ground pixels, every pixel from every
-sweep (pixel-pulses = pixels x sweeps), and each image is compared with a float64 NumPy
-evaluation of its own sum on a random subset of pixels (error ``20 log10(||a - ref|| /
-||ref||)``):
+The same sweeps of the paper's point target, the same N x N ground grid (2 m, centred on the
+target), both tools timed alternately in one process, the best of ``--repeats`` calls each
+after a warm-up call (compilation), and beside every speed the accuracy of the image against a
+float64 reference:
 
-* mitsar: :func:`mitsar.focus.backprojection.backproject_drjit` on the 16x range spectrum
-  (float64 range and phase, float32 elsewhere), against
-  :func:`mitsar.focus.backprojection.backproject_numpy`;
-* FastSAR: ``fastsar.backproject(..., backend="cpu")`` (C++/OpenMP, float64 arithmetic on
-  float32 range profiles) on the same data written as a frequency-domain phase history
-  motion-compensated to the scene centre (sample n at RF frequency ``f_c + K t_n``; a
-  scatterer gives ``exp(-j 4 pi f dR / c)``, ``dR = |x - a| - |a|``), against a float64
-  evaluation of that documented sum (``fastsar.bp`` module docstring).
+* **mitsar** ``focus(raw, "bpa", PlaneGrid, range_upsample=64)``, whole beam, rect window:
+  band selection, range compression, the Dr.Jit sum (by row segments,
+  :mod:`mitsar.focus.bp_tiled`), normalisation, the image product. 64x zero-padding (not
+  focus()'s default 16x; ``--range-upsample``) because its linear interpolation then stays
+  well below -60 dB (16x: about -52 dB, 32x: -58 to -64 dB; docs/focusing.md, error
+  budget). Accuracy against
+  ``focus(..., backend="numpy")`` on a random subset of the pixels: at 256x (float64, linear
+  interpolation error below -90 dB: the total error of the image, interpolation included),
+  and the same sum in float64 at the same upsampling (the kernel's arithmetic alone).
+* **FastSAR grid path** ``fastsar.form_image(S, ant, fmin, df, nx, ny, spx, spy,
+  algorithm="bp", backend="cpu")``: its ``ExactFormer``, which its docs call "the fast path
+  for exact backprojection" onto a regular grid (tile-centre distance in float64 once per tile
+  and pulse, third-order expansion of the pixel offset in float32, cubic interpolation at 8x).
+* **FastSAR points path** ``fastsar.backproject(S, ant, fmin, df, points, backend="cpu")``: its
+  path for arbitrary points, bistatic geometry or a DEM (float64 per pixel and pulse).
 
-FastSAR is optional (``pip install fastsar==0.1.8``, the ``bench`` extra); without it, or
-without a C++ compiler for its CPU kernel, its rows are skipped with the reason printed.
-Timings are taken after a warm-up call (kernel compilation) and include the copy back to
-NumPy; both wall time and CPU time (all threads) are printed, since on a shared machine the
-wall time depends on the other jobs. Not a test:
-``python benchmarks/bench_fastsar.py [--sweeps N] [--pixels N]``.
+FastSAR gets the same sweeps as a frequency-domain phase history: RVP removed, conjugated
+(FastSAR's ``exp(-j 4 pi f dR / c)``) and referenced to the grid centre (``dR = |x - a| -
+|a|``, antenna positions relative to the centre), ``window=False`` (mitsar runs rect). Its
+accuracy is measured against the exact float64 sum ``sum_p sum_k S[p, k] exp(+j 4 pi f_k dR /
+c)`` (no interpolation at all) on the same subset of pixels.
+
+Counts: pixel-pulses = pixels x sweeps for every tool (mitsar sums, per pixel, only the
+sweeps whose line of sight lies in the beam; FastSAR every sweep). Wall time is what counts;
+CPU time of all threads is printed beside it, and the load average before and after, since
+the machine may be shared. FastSAR is optional (``pip install fastsar==0.1.8``, the ``bench``
+extra; it compiles its C++ kernel on first use); without it its rows are skipped with the
+reason. Not a test: ``python benchmarks/bench_fastsar.py [--sweeps N] [--pixels N]``
+(the issue's two sizes: 1000 x 512 and 4096 x 1024).
 """
 
 from __future__ import annotations
 
 import argparse
 import math
+import os
 import resource
 import time
+from collections.abc import Callable
 
 import numpy as np
-from paper_scene import paper_target_raw
+from paper_scene import TARGET, paper_target_raw
 
 import mitsar
-from mitsar.focus.backprojection import backproject_drjit, backproject_numpy
-from mitsar.focus.compression import range_spectrum
-from mitsar.focus.windows import window_coefficients
+from mitsar.focus.grid import PlaneGrid, PointsGrid
+from mitsar.focus.spectral import remove_rvp
 from mitsar.model.radar import SPEED_OF_LIGHT
 from mitsar.model.signal import fast_time
 
-TARGET = np.array([15.0, 8.0, 0.0])
+EXTENT = 2.0
+"""Side of the square ground grid [m]."""
 
 
 def error_db(values: np.ndarray, reference: np.ndarray) -> float:
+    """``20 log10(||values - reference|| / ||reference||)`` [dB]."""
     return 20 * math.log10(np.linalg.norm(values - reference) / np.linalg.norm(reference))
 
 
@@ -52,109 +69,159 @@ def cpu_seconds() -> float:
     return usage.ru_utime + usage.ru_stime
 
 
-def timed(function, repeats: int = 1):  # noqa: ANN001, ANN201
-    """Result, wall seconds and CPU seconds per call, after a warm-up call. On a shared
-    machine the wall time depends on the other jobs; the CPU time much less."""
-    function()  # warm-up: compilation, caches
-    start, cpu = time.perf_counter(), cpu_seconds()
-    for _ in range(repeats):
-        result = function()
-    return (result, (time.perf_counter() - start) / repeats,
-            (cpu_seconds() - cpu) / repeats)
+def alternate(calls: dict[str, Callable[[], object]], repeats: dict[str, int],
+              warm_up: dict[str, Callable[[], object]]) -> dict[str, tuple[object, float, float]]:
+    """Warm every call up once (``warm_up``: a smaller call that compiles the same kernels),
+    then run them in turn, ``repeats`` rounds; per call the last result and the best wall and
+    CPU seconds."""
+    best: dict[str, tuple[object, float, float]] = {}
+    for name, call in calls.items():
+        best[name] = (warm_up.get(name, call)(), math.inf, math.inf)
+    for round_ in range(max(repeats.values())):
+        for name, call in calls.items():
+            if round_ >= repeats[name]:
+                continue
+            start, cpu = time.perf_counter(), cpu_seconds()
+            result = call()
+            wall, cpu = time.perf_counter() - start, cpu_seconds() - cpu
+            best[name] = (result, min(best[name][1], wall), min(best[name][2], cpu))
+    return best
+
+
+def fastsar_history(raw, radar: mitsar.Radar, centre: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray, float, float]:
+    """The sweeps as FastSAR's phase history: samples (complex64), antenna positions relative
+    to ``centre`` [m], first frequency and frequency step [Hz] (module docstring)."""
+    antenna = raw["platform_position"].values - centre
+    rf = radar.carrier_frequency + radar.chirp_rate * fast_time(radar)
+    history = np.conj(remove_rvp(raw["raw"].values, radar)) * np.exp(
+        4j * np.pi * rf[None] * np.linalg.norm(antenna, axis=-1)[:, None] / SPEED_OF_LIGHT)
+    return (history.astype(np.complex64), antenna, float(rf[0]),
+            radar.chirp_rate / radar.sampling_frequency)
+
+
+def fastsar_reference(history: np.ndarray, antenna: np.ndarray, fmin: float, df: float,
+                      points: np.ndarray) -> np.ndarray:
+    """The exact float64 sum ``sum_p sum_k S[p, k] exp(+j 4 pi (f_min + k df) dR_p / c)``,
+    ``dR_p = |x - a_p| - |a_p|``, by Horner's rule over k (vectorised over pulses and
+    points)."""
+    history = history.astype(np.complex128)
+    out = np.zeros(len(points), dtype=complex)
+    for start in range(0, len(history), 512):
+        block = slice(start, start + 512)
+        delta = (np.linalg.norm(points[None] - antenna[block, None], axis=-1)
+                 - np.linalg.norm(antenna[block], axis=-1)[:, None])      # (p, x)
+        step = np.exp(4j * np.pi * df * delta / SPEED_OF_LIGHT)
+        total = np.zeros_like(step)
+        for k in range(history.shape[1] - 1, -1, -1):
+            total = total * step + history[block, k, None]
+        out += (total * np.exp(4j * np.pi * fmin * delta / SPEED_OF_LIGHT)).sum(axis=0)
+    return out
+
+
+def load() -> str:
+    """The 1-minute load average, and the number of CPUs."""
+    return f"{os.getloadavg()[0]:.2f} on {os.cpu_count()} CPUs"
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__)
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--sweeps", type=int, default=1000)
     parser.add_argument("--pixels", type=int, default=512, help="pixels per side")
-    parser.add_argument("--check", type=int, default=2048, help="pixels in the float64 check")
+    parser.add_argument("--repeats", type=int, default=3, help="timed calls per tool (best)")
+    parser.add_argument("--points-repeats", type=int, default=None,
+                        help="timed calls of FastSAR's points path (default: --repeats up to "
+                        "1e9 pixel-pulses, else 1; 0 skips it)")
+    parser.add_argument("--check", type=int, default=512, help="pixels in the float64 checks")
+    parser.add_argument("--range-upsample", type=int, default=64,
+                        help="mitsar's range_upsample (zero-padding before its linear "
+                        "interpolation; 16 is focus()'s default)")
     args = parser.parse_args()
 
     radar = mitsar.Radar()
     raw = paper_target_raw(args.sweeps, radar)
-    side = np.linspace(-1.0, 1.0, args.pixels)
-    grid_x, grid_y = np.meshgrid(15.0 + side, 8.0 + side, indexing="ij")
-    pixels = np.stack([grid_x, grid_y, np.zeros_like(grid_x)], -1).reshape(-1, 3)
-    positions = raw["platform_position"].values
-    velocities = raw["platform_velocity"].values
-    work = len(pixels) * len(positions)
-    check = np.random.default_rng(1).choice(len(pixels), min(args.check, len(pixels)),
-                                            replace=False)
-    print(f"exact back-projection: {args.pixels}x{args.pixels} pixels x {len(positions)} "
-          f"sweeps = {work:.3g} pixel-pulses (every pixel from every sweep)")
-    print(f"  {'kernel':34s} {'time [s]':>9s} {'M px-pulses/s':>14s} {'cpu [s]':>8s} "
-          f"{'M px-pulses/cpu-s':>18s} {'error vs f64 [dB]':>18s}")
+    n = args.pixels
+    step = EXTENT / n
+    centre = np.asarray(TARGET, dtype=float)
+    # FastSAR's grid: x_i = (i - n/2) step about the centre along e1 (x), y_j along e2 (y);
+    # mitsar's PlaneGrid (dims v, u) holds the same points, transposed.
+    axis = [-n / 2 * step, (n / 2 - 0.5) * step, step]
+    grid = PlaneGrid(origin=centre, axis_u=[1, 0, 0], axis_v=[0, 1, 0], u=axis, v=axis)
+    work = n * n * args.sweeps
+    rng = np.random.default_rng(1)
+    check = rng.choice(n * n, min(args.check, n * n), replace=False)
+    print(f"exact back-projection, {args.sweeps} sweeps x {n}x{n} ground pixels over "
+          f"{EXTENT:g} m = {work:.3g} pixel-pulses; load {load()}")
 
-    # mitsar
-    frequency, profile = range_spectrum(raw["raw"].values, radar, upsample=16)
-    centroid = raw["boresight"].values @ np.array([1.0, 0, 0])
-    arguments = (profile, frequency, radar)
-    common = (positions, velocities, centroid, 1.0, window_coefficients("rect"))
-    reference, _ = backproject_numpy(*arguments, pixels[check], *common)
-    (values, _), elapsed, cpu = timed(lambda: backproject_drjit(*arguments, pixels, *common),
-                                      2)
-    rate, cpu_rate = work / elapsed, work / cpu
-    print(f"  {'mitsar Dr.Jit':34s} {elapsed:9.2f} {rate / 1e6:14.1f} {cpu:8.2f} "
-          f"{cpu_rate / 1e6:18.1f} {error_db(values[check], reference):18.1f}")
-
-    # FastSAR
+    calls: dict[str, Callable[[], object]] = {
+        "mitsar focus(bpa)": lambda: mitsar.focus(
+            raw, "bpa", grid, range_upsample=args.range_upsample)["image"].values}
+    repeats = {"mitsar focus(bpa)": args.repeats}
+    warm_up: dict[str, Callable[[], object]] = {}
+    notes: list[str] = []
     try:
         import fastsar  # optional: the bench extra
     except ImportError as error:
-        print(f"  FastSAR skipped: {error} (pip install fastsar==0.1.8)")
-        return
-    centre = pixels.mean(axis=0)
-    antenna = positions - centre
-    points = pixels - centre
-    rf = radar.carrier_frequency + radar.chirp_rate * fast_time(radar)
-    history = np.conj(raw["raw"].values) * np.exp(
-        4j * np.pi * rf[None, :] * np.linalg.norm(antenna, axis=-1)[:, None] / SPEED_OF_LIGHT)
-    df = radar.chirp_rate / radar.sampling_frequency
+        fastsar = None
+        notes.append(f"FastSAR skipped: {error} (pip install fastsar==0.1.8)")
+    if fastsar is not None:
+        history, antenna, fmin, df = fastsar_history(raw, radar, centre)
+        calls["FastSAR form_image(bp) [grid]"] = lambda: fastsar.form_image(
+            history, antenna, fmin, df, n, n, step, step, algorithm="bp", backend="cpu",
+            window=False)
+        repeats["FastSAR form_image(bp) [grid]"] = args.repeats
+        points_repeats = (args.points_repeats if args.points_repeats is not None
+                          else args.repeats if work <= 1e9 else 1)
+        if points_repeats > 0:
+            ii, jj = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+            points = np.stack([(ii - n / 2) * step, (jj - n / 2) * step, 0 * ii], -1)
+            calls["FastSAR backproject [points]"] = lambda: fastsar.backproject(
+                history, antenna, fmin, df, points.reshape(-1, 3), backend="cpu",
+                window=False).reshape(n, n)
+            repeats["FastSAR backproject [points]"] = points_repeats
+            warm_up["FastSAR backproject [points]"] = lambda: fastsar.backproject(
+                history, antenna, fmin, df, points.reshape(-1, 3)[:64], backend="cpu",
+                window=False)
     try:
-        fast, elapsed, cpu = timed(lambda: fastsar.backproject(history, antenna, float(rf[0]), df,
-                                                          points, backend="cpu",
-                                                          window=False))
+        results = alternate(calls, repeats, warm_up)
     except Exception as error:  # noqa: BLE001  (a missing compiler, an API change: say why)
-        print(f"  FastSAR skipped: {type(error).__name__}: {error}")
-        return
-    fast_reference = _fastsar_reference(history, antenna, float(rf[0]), df, points[check])
-    fast_rate, fast_cpu_rate = work / elapsed, work / cpu
-    print(f"  {'FastSAR ' + fastsar.__version__ + ' exact, cpu':34s} {elapsed:9.2f} "
-          f"{fast_rate / 1e6:14.1f} {cpu:8.2f} {fast_cpu_rate / 1e6:18.1f} "
-          f"{error_db(fast[check], fast_reference):18.1f}")
-    print(f"  mitsar / FastSAR throughput: {rate / fast_rate:.2f}x (wall), "
-          f"{cpu_rate / fast_cpu_rate:.2f}x (per CPU-second)")
+        print(f"  failed: {type(error).__name__}: {error}")
+        raise
+    print(f"  load after the runs: {load()}")
 
+    # accuracy: the same random pixels, each tool against its float64 reference
+    v_index, u_index = np.unravel_index(check, (n, n))
+    pixels = grid.resolve(raw, radar, 0.1)["position"][v_index, u_index]
+    accuracy: dict[str, str] = {}
+    image = results["mitsar focus(bpa)"][0][v_index, u_index]
+    same = mitsar.focus(raw, "bpa", PointsGrid(pixels), backend="numpy",
+                        range_upsample=args.range_upsample)["image"].values
+    fine = mitsar.focus(raw, "bpa", PointsGrid(pixels), backend="numpy",
+                        range_upsample=256)["image"].values
+    accuracy["mitsar focus(bpa)"] = (
+        f"{error_db(image, fine.ravel()):.1f} dB (same sum in f64, {args.range_upsample}x: "
+        f"{error_db(image, same.ravel()):.1f} dB)")
+    if fastsar is not None:
+        # FastSAR's pixel (i, j) is x = (i - n/2) step, y = (j - n/2) step: mitsar's (v=j, u=i)
+        reference = fastsar_reference(history, antenna, fmin, df, pixels - centre)
+        for name in calls:
+            if name.startswith("FastSAR"):
+                values = np.asarray(results[name][0])[u_index, v_index]
+                accuracy[name] = f"{error_db(values, reference):.1f} dB"
 
-def _fastsar_reference(history: np.ndarray, antenna: np.ndarray, fmin: float, df: float,
-                       points: np.ndarray, upsample: int = 8) -> np.ndarray:
-    """float64 evaluation of FastSAR's documented exact sum (``fastsar.bp`` docstring): the
-    pulse's zero-padded inverse FFT (zero delay at the centre bin), read linearly at
-    ``dR`` and rotated by ``exp(+j 2 pi k dR)``, k the two-way wavenumber at the centre
-    frequency."""
-    pulses, samples = history.shape
-    size = 1 << int(np.ceil(np.log2(upsample * samples)))
-    half = samples // 2
-    padded = np.zeros((pulses, size), dtype=complex)
-    padded[:, :samples - half] = history[:, half:]
-    padded[:, size - half:] = history[:, :half]
-    compressed = np.fft.fftshift(np.fft.ifft(padded, axis=1), axes=1) * size
-    bins_per_metre = 2.0 * df * size / SPEED_OF_LIGHT
-    wavenumber = 2.0 * (fmin + half * df) / SPEED_OF_LIGHT
-    out = np.zeros(len(points), dtype=complex)
-    for start in range(0, pulses, 64):
-        block = slice(start, start + 64)
-        delta = (np.linalg.norm(points[None] - antenna[block, None], axis=-1)
-                 - np.linalg.norm(antenna[block], axis=-1)[:, None])
-        position = delta * bins_per_metre + size // 2
-        lower = np.floor(position)
-        fraction = position - lower
-        lower = lower.astype(np.int64) % size
-        rows = np.arange(start, min(start + 64, pulses))[:, None]
-        value = (compressed[rows, lower] * (1 - fraction)
-                 + compressed[rows, (lower + 1) % size] * fraction)
-        out += (value * np.exp(2j * np.pi * wavenumber * delta)).sum(axis=0)
-    return out
+    print(f"  {'tool [path]':32s} {'wall [s]':>9s} {'M px-pulses/s':>14s} {'cpu [s]':>8s} "
+          f"{'M px-pulses/cpu-s':>18s}  error vs interpolation-free float64")
+    for name, (_, wall, cpu) in results.items():
+        print(f"  {name:32s} {wall:9.3f} {work / wall / 1e6:14.0f} {cpu:8.2f} "
+              f"{work / cpu / 1e6:18.0f}  {accuracy[name]}")
+    mitsar_wall = results["mitsar focus(bpa)"][1]
+    for name in results:
+        if name.startswith("FastSAR"):
+            print(f"  mitsar / {name}: {results[name][1] / mitsar_wall:.2f}x (wall), "
+                  f"{results[name][2] / results['mitsar focus(bpa)'][2]:.2f}x (per CPU-s)")
+    for note in notes:
+        print(f"  {note}")
 
 
 if __name__ == "__main__":

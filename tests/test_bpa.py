@@ -28,10 +28,13 @@ def _peak(image):
 
 
 def test_drjit_kernel_equals_numpy_reference(raw):
-    """Same sum, two implementations: agree to 1e-6 of the peak.
+    """Same sum, two implementations: agree to 3e-5 of the peak.
 
-    Both compute geometry and phase in float64; the kernel evaluates sin/cos of the wrapped
-    phase in float32 (error ~1e-7 rad per term), the reference in float64.
+    ``focus`` sums a grid by row segments (:mod:`mitsar.focus.bp_tiled`): float64 range and
+    phase once per segment and sweep, each pixel's offset within its segment (up to 7 cm here)
+    in float32, whose rounding leaves ~1e-5 rad of phase (docs/focusing.md, error budget);
+    the reference is all float64. The exact kernel's 1e-6 of the peak (float64 range per
+    pixel) is asserted in tests/test_bpa_fast.py.
     """
     grid = SlantGrid(along_track=[0.1, 0.3, 0.02], slant_range=[7.8, 8.2, 0.02])
     fast = mitsar.focus(raw, grid=grid, azimuth_resolution=0.1, window="hamming")
@@ -39,7 +42,7 @@ def test_drjit_kernel_equals_numpy_reference(raw):
                              backend="numpy")
     peak = np.abs(reference["image"].values).max()
     np.testing.assert_allclose(fast["image"].values, reference["image"].values,
-                               atol=1e-6 * peak)
+                               atol=3e-5 * peak)
 
 
 def test_kernel_per_pixel_sweep_ranges_match_the_numpy_sum_over_those_sweeps(raw):

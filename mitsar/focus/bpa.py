@@ -31,9 +31,10 @@ import xarray as xr
 from numpy.typing import NDArray
 from tqdm.auto import tqdm
 
-from mitsar.focus.aperture import aspect_frames, sweep_window
+from mitsar.focus.aperture import aspect_frames, sweep_window, track_coordinates
 from mitsar.focus.backprojection import backproject_drjit, backproject_numpy
-from mitsar.focus.bp_setup import beat_band, normalise, prepare
+from mitsar.focus.bp_setup import aperture_weights, beat_band, normalise, prepare
+from mitsar.focus.bp_tiled import backproject_tiled
 from mitsar.focus.grid import track_frame
 from mitsar.model.radar import Radar
 
@@ -62,7 +63,8 @@ def _rows(pair: tuple[NDArray, NDArray] | None, rows: slice) -> tuple[NDArray, N
 def focus_bpa(raw: xr.Dataset, pixels: NDArray, *, half_width: float, window: str,
               range_window: str, remove_rvp: bool, motion_correction: bool, backend: str,
               range_upsample: int, pixel_chunk: int, band_selection: str | None = None,
-              progress: bool = False) -> tuple[NDArray, NDArray, dict]:
+              progress: bool = False, row_length: int | None = None
+              ) -> tuple[NDArray, NDArray, dict]:
     """Back-project a raw product onto pixels (see the module docstring).
 
     Parameters
@@ -78,6 +80,10 @@ def focus_bpa(raw: xr.Dataset, pixels: NDArray, *, half_width: float, window: st
         processed band narrower than the beam, "pixel" otherwise.
     progress : bool
         Show a progress bar over pixel chunks.
+    row_length : int, optional
+        Pixels per row when ``pixels`` are a grid in row-major order (its fastest dim): the
+        Dr.Jit sum then runs by row segments (:func:`mitsar.focus.bp_tiled.backproject_tiled`,
+        float64 once per segment and sweep); None: groups of consecutive points.
 
     Returns
     -------
@@ -91,10 +97,12 @@ def focus_bpa(raw: xr.Dataset, pixels: NDArray, *, half_width: float, window: st
                  remove_rvp=remove_rvp, range_upsample=range_upsample,
                  band_selection=band_selection, points=pixels)
     radar, positions = bp.radar, bp.positions
-    frequency, profile = crop_to_pixels(bp.frequency, bp.profile, radar, pixels, positions,
-                                        float(bp.speed.max()))
+    frequency, profile = bp.frequency, bp.profile  # the pixels' band (beat_band) already
     # 3. back-projection in pixel chunks
     origin, direction, _ = track_frame(raw)
+    coordinates = track_coordinates(pixels, origin, direction)  # once for ranges and weights
+    if row_length and backend != "numpy":  # whole rows per chunk: lanes follow the rows
+        pixel_chunk = max(row_length, pixel_chunk // row_length * row_length)
     chunks = tqdm([slice(start, start + pixel_chunk)
                    for start in range(0, len(pixels), pixel_chunk)],
                   disable=not progress, desc="back-projection", unit="chunk")
@@ -104,6 +112,7 @@ def focus_bpa(raw: xr.Dataset, pixels: NDArray, *, half_width: float, window: st
     # curved tracks, band narrower than the beam: the window on each pixel's aspect angle
     # (aperture.aspect_frames); the whole beam keeps every sweep that sees the pixel
     aspect = None
+    kernel = {"bp_kernel": "numpy" if backend == "numpy" else "exact"}
     if bp.band_selection == "pixel" and not bp.straight and half_width < bp.beam_half_width:
         aspect = aspect_frames(pixels, positions, bp.velocities, bp.centroid)
     if backend == "numpy":
@@ -113,19 +122,31 @@ def focus_bpa(raw: xr.Dataset, pixels: NDArray, *, half_width: float, window: st
     else:
         if bp.straight:
             ranges = sweep_window(pixels, origin, direction, bp.mean_speed / bp.sweep_rate,
-                                  len(positions), bp.mean_centroid, bp.kernel_half_width)
+                                  len(positions), bp.mean_centroid, bp.kernel_half_width,
+                                  coordinates)
         else:  # any track: a safe bound from a coarse search (curved_sweep_range)
             ranges = curved_sweep_range(pixels, positions, bp.velocities, bp.centroid,
                                         bp.kernel_half_width, aspect)
-        results = [backproject_drjit(*arguments, pixels[c], *common,
-                                     sweep_range=_rows(ranges, c), aspect=_rows(aspect, c),
-                                     receivers=bp.receivers)
-                   for c in chunks]
+        if bp.receivers is None:  # by pixel groups (bp_tiled), exact kernel where needed
+            tiled = [backproject_tiled(*arguments, pixels[c], *common,
+                                       sweep_range=_rows(ranges, c), aspect=_rows(aspect, c),
+                                       row_length=row_length)
+                     for c in chunks]
+            results = [t[:2] for t in tiled]
+            exact = sum(t[2]["exact_pixels"] for t in tiled)
+            kernel = {"bp_kernel": "tiled" if exact == 0 else "tiled+exact",
+                      "bp_lane_pixels": max(t[2]["lane_pixels"] for t in tiled)}
+        else:  # a bistatic channel: the exact kernel (half its path per pixel)
+            results = [backproject_drjit(*arguments, pixels[c], *common,
+                                         sweep_range=_rows(ranges, c), aspect=_rows(aspect, c),
+                                         receivers=bp.receivers)
+                       for c in chunks]
     # 4. normalisation by the full-aperture weight
     sums, totals = zip(*results, strict=True)
     values, coverage = normalise(bp, raw, pixels, np.concatenate(sums), np.concatenate(totals),
-                                 half_width)
-    return values, coverage, {"band_selection": bp.band_selection}
+                                 half_width, aperture_weights(bp, raw, pixels, half_width,
+                                                              coordinates))
+    return values, coverage, {"band_selection": bp.band_selection, **kernel}
 
 
 def curved_sweep_range(pixels: NDArray, positions: NDArray, velocities: NDArray,

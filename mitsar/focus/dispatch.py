@@ -221,7 +221,8 @@ def focus(raw: xr.Dataset | Sequence[xr.Dataset], algorithm: str = "bpa",
             range_window=range_window, remove_rvp=remove_rvp,
             motion_correction=motion_correction, backend=backend,
             range_upsample=range_upsample, progress=progress,
-            pixel_chunk=pixel_chunk or (1 << 16 if progress else 1 << 20))
+            pixel_chunk=pixel_chunk or (1 << 16 if progress else 1 << 20),
+            row_length=layout["position"].shape[-2] if layout["position"].ndim > 2 else None)
     shape = layout["position"].shape[:-1]  # the grid's dims: two, or three for a volume
     image = make_image_product(raw, np.reshape(values, shape), layout, {**processing, **extra},
                                coverage=np.reshape(coverage, shape))

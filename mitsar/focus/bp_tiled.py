@@ -1,0 +1,511 @@
+"""Exact back-projection by groups of neighbouring pixels: float64 once per group and sweep.
+
+The sum is that of :mod:`mitsar.focus.backprojection` (beat frequency ``K tau + f_c dtau/dt``,
+Meta 2007 §II-B; linear interpolation of the zero-padded range profile; de-rotation by
+``exp(-j 2 pi f_c tau)``, paper eq. 1; window on the direction sine), evaluated differently:
+
+1. the pixels are cut into *lanes* of ``G`` neighbours (a row segment of a grid, or ``G``
+   consecutive points), and each lane gets a centre ``c`` (float64) and the offsets
+   ``d = x - c`` of its pixels (float32);
+2. per lane and sweep, in float64: ``w = c - p_k``, ``r = |w|``, the profile position of
+   ``K 2 r / c`` (split into an integer bin and a float32 fraction) and the carrier turns
+   ``f_c 2 r / c`` wrapped to one turn; the unit vector ``u = w / r`` and ``1 / r`` go to
+   float32;
+3. per pixel, in float32, the range offset to third order in ``d`` (FastSAR 0.1.8,
+   ``fastsar.exact`` module docstring):
+
+   ``|w + d| - |w| = a + b / (2 r) - a b / (2 r^2) + e``, ``a = d . u``,
+   ``b = |d|^2 - a^2``,                                                                (1)
+
+   whose remainder is bounded by ``|e| <= h^4 / (2 r^3)`` for ``|d| <= h`` (the next terms
+   of the series of ``sqrt((r + a)^2 + b)``: ``(a^2 b / 2 - b^2 / 8) / r^3``, each at most
+   ``h^4 / 8``, with a factor 2 of margin for the higher ones and ``r`` taken as the smallest
+   lane-to-antenna distance less ``h``); the direction sine ``v . (w + d) / (r + delta)``
+   (window and Doppler term) is evaluated with that range. On a regular row (slot g at
+   ``d = m A``, ``m = g - (G - 1) / 2``, one step vector A for all the rows) (1) is a cubic in
+   m and the sine a quadratic,
+
+   ``s(m) = s_c + m (beta - s_c alpha) + m^2 (s_c (3 alpha^2 / 2 - gamma / 2) - alpha beta)``,
+   ``alpha = A . u / r``, ``beta = A . v / r``, ``gamma = |A|^2 / r^2``, ``s_c = v . u``,   (2)
+
+   with a remainder of order ``(m |A| / r)^3``, so the lookup position, the phase and the
+   window offset of a pixel are each one polynomial in m whose coefficients are computed once
+   per lane and sweep;
+4. the lookup position is the centre's fraction plus ``delta`` times bins per metre plus the
+   Doppler shift, the phase the centre's wrapped turns plus ``2 f_c delta / c``; one 16-byte
+   packet per lookup holds the bin's value and the difference to the next (complex64), and
+   sin/cos of the phase come from polynomials of the half angle (:func:`sincos_half_turns`,
+   error 1.2e-6).
+
+A lane is used only where the phase error of (1), ``4 pi f_max / c * h^4 / (2 r^3)``, stays
+below :data:`PHASE_LIMIT`; the lane size G is the largest of :data:`LANE_SIZES` for which all
+lanes pass, and lanes that fail even at the smallest size go to the exact kernel
+(:func:`mitsar.focus.backprojection.backproject_drjit`, float64 range per pixel). Error budget
+(docs/focusing.md, "Exact BPA by pixel groups"): expansion <= 1e-4 rad of phase per term,
+float32 offsets and phase ~1e-5 rad, sin/cos ~1e-6, float32 sums as the exact kernel:
+-100 to -130 dB against the float64 sum of the same profiles. The linear interpolation of
+the profiles dominates the error against an interpolation-free float64 sum (-52 dB at 16x
+zero-padding, -61 to -64 dB at 32x), as in the exact kernel.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import drjit as dr
+import numpy as np
+from numpy.typing import NDArray
+
+from mitsar.backend import array_namespace, namespace_of
+from mitsar.focus.backprojection import (
+    backproject_drjit,
+    carrier_turns,
+    jit_array,
+    kernel_tables,
+    profile_position,
+)
+from mitsar.focus.windows import cosine_series
+from mitsar.model.radar import SPEED_OF_LIGHT, Radar
+
+__all__ = ["LANE_SIZES", "SWEEP_PARTS", "PHASE_LIMIT", "backproject_tiled", "lane_layout",
+           "row_step", "sincos_half_turns", "sincos_turns"]
+
+LANE_SIZES = (32, 16, 8, 4)
+"""Pixels per lane tried, largest first (more pixels share a lane's float64 work)."""
+
+PHASE_LIMIT = 1e-4
+"""Largest phase error [rad] that the range expansion (1) may leave at any pixel and sweep."""
+
+# sin(2 pi y) = y S(y^2), cos(2 pi y) = C(y^2) on |y| <= 1/4: least squares on Chebyshev
+# nodes; sin and cos of 2 y then by the double angle, largest error 1.2e-6 (sin) and 4.1e-7
+# (cos) over a whole turn, evaluated in float32.
+_SIN = (6.283163946270893, -41.33712966619642, 81.34035740333923, -70.98962650011296)
+_COS = (0.9999999532360555, -19.739171315085024, 64.93458093602057, -85.24007915837323,
+        56.24034662338018)
+
+
+def _horner(coefficients: tuple[Any, ...], x: Any) -> Any:
+    """``sum_i c_i x^i`` by Horner's rule (fused multiply-adds)."""
+    value = coefficients[-1]
+    for c in coefficients[-2::-1]:
+        value = dr.fma(value, x, c)
+    return value
+
+
+def sincos_half_turns(half: Any) -> tuple[Any, Any]:
+    """``sin(2 pi t)`` and ``cos(2 pi t)`` from ``half = t / 2`` in [-1/4, 1/4] (float32).
+
+    Polynomials for the half angle (``_SIN``, ``_COS``), then ``sin 2y = 2 sin y cos y`` and
+    ``cos 2y = 2 cos^2 y - 1``: no folding of the argument, 13 operations.
+    """
+    square = half * half
+    sine = half * _horner(_SIN, square)
+    cosine = _horner(_COS, square)
+    return (sine + sine) * cosine, dr.fma(cosine + cosine, cosine, -1.0)
+
+
+def sincos_turns(turns: Any) -> tuple[Any, Any]:
+    """``sin(2 pi t)`` and ``cos(2 pi t)`` for any ``t`` [turns] (float32): wrapped to
+    [-1/2, 1/2], then :func:`sincos_half_turns`."""
+    return sincos_half_turns(0.5 * (turns - dr.round(turns)))
+
+
+def _cos_turns(angle: Any) -> Any:
+    """``cos(angle)`` for the window's cosine series (angle in radians, |angle| <= 3 pi)."""
+    turns = angle * (1.0 / (2.0 * math.pi))
+    return sincos_turns(turns - dr.round(turns))[1]
+
+
+def lane_layout(count: int, row_length: int | None, size: int) -> NDArray[np.int64]:
+    """Pixel indices of every lane, shape (L, size), -1 for padding.
+
+    Pixels are in row-major order with rows of ``row_length`` pixels (a grid's fastest axis;
+    None: one row of all the pixels); each row is cut into lanes of ``size`` consecutive
+    pixels, the last one padded, so that no lane straddles two rows.
+    """
+    row = count if not row_length else int(row_length)
+    rows = -(-count // row) if count else 0
+    per_row = -(-row // size)
+    index = np.full((rows, per_row * size), -1, dtype=np.int64)
+    flat = np.arange(rows * row).reshape(rows, row)
+    index[:, :row] = np.where(flat < count, flat, -1)
+    return index.reshape(-1, size)
+
+
+def row_step(pixels: NDArray, row_length: int | None, tolerance: float = 1e-9
+             ) -> NDArray[np.float64] | None:
+    """The common step vector [m] between neighbours along the rows, or None.
+
+    Defined when the pixels form whole rows of ``row_length`` points each spaced by one and
+    the same vector (within ``tolerance`` metres): the regular grids (plane, slant, volume
+    slices with uniform axes). The lanes then hold ``x = c + m A`` with literal offsets m.
+    """
+    if not row_length or row_length < 2 or len(pixels) % row_length:
+        return None
+    rows = pixels.reshape(-1, row_length, 3)
+    steps = np.diff(rows, axis=1)
+    step = steps[0, 0]
+    if np.abs(steps - step).max() > tolerance:
+        return None
+    return step
+
+
+def _nearest_range(centre: NDArray, positions: NDArray) -> NDArray:
+    """A lower bound [m] of the distance from every lane centre to the track: the distance to
+    64 samples of the track less half the longest path between two samples."""
+    samples = np.unique(np.linspace(0, len(positions) - 1, 64).round().astype(int))
+    path = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(positions, axis=0),
+                                                           axis=-1))])
+    slack = 0.5 * float(np.max(np.diff(path[samples]), initial=0.0))
+    track = positions[samples]
+    distance = np.sqrt(np.maximum((centre ** 2).sum(-1)[:, None] - 2 * centre @ track.T
+                                  + (track ** 2).sum(-1)[None], 0.0)).min(axis=1)
+    return distance - slack
+
+
+def _lanes(pixels: NDArray, row_length: int | None, size: int, step: NDArray | None,
+           positions: NDArray, limit: float) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+    """Lane indices (L, G), centres (L, 3), pixel offsets (L, G, 3) and the predicted range
+    error ``h^4 / (2 r^3)`` [m] of every lane (inf where ``r < 4 h``), module eq. (1).
+
+    With a row ``step`` the centre is the middle of the lane's G slots, so that slot g sits at
+    ``c + (g - (G - 1) / 2) A`` (a padded slot past the row's end too, discarded later);
+    otherwise it is the mean of the lane's pixels. ``limit`` [m]: where one bound for all the
+    lanes stays below it, that bound is returned for every lane.
+    """
+    groups = lane_layout(len(pixels), row_length, size)
+    if step is not None:
+        slot = np.arange(size) - (size - 1) / 2
+        centre = pixels[groups[:, 0]] - slot[0] * step  # the first slot is always a pixel
+        offsets = np.broadcast_to(slot[:, None] * step, (len(groups), size, 3))
+        reach = np.full(len(groups), np.abs(slot).max() * np.linalg.norm(step))
+    else:
+        valid = groups >= 0
+        points = pixels[np.where(valid, groups, 0)]                     # (L, G, 3)
+        weights = valid[..., None].astype(float)
+        centre = (points * weights).sum(axis=1) / np.maximum(weights.sum(axis=1), 1.0)
+        offsets = np.where(valid[..., None], points - centre[:, None], 0.0)
+        reach = np.sqrt((offsets ** 2).sum(axis=-1)).max(axis=1)
+    # one bound for all the lanes first (the nearest point of their bounding box to the
+    # track), per lane only if that one fails
+    widest = float(reach.max(initial=0.0))
+    low, high = centre.min(axis=0) - widest, centre.max(axis=0) + widest
+    r = np.linalg.norm(positions - np.clip(positions, low, high), axis=-1).min() - widest
+    if r > 4 * widest and widest ** 4 / (2 * r ** 3) <= limit:
+        return groups, centre, offsets, np.full(len(groups), widest ** 4 / (2 * r ** 3))
+    r = _nearest_range(centre, positions) - reach   # any pixel-to-antenna distance exceeds it
+    error = np.where(r > 4 * reach, reach ** 4 / (2 * np.maximum(r, 1e-9) ** 3), np.inf)
+    return groups, centre, offsets, error
+
+
+def _lookups_inside(frequency: NDArray, radar: Radar, centres: NDArray, positions: NDArray,
+                    velocities: NDArray, reach: float) -> bool:
+    """Whether every lookup of every lane slot (within ``reach`` metres of its lane's centre)
+    from every sweep falls inside the profile axis, so the kernel may skip its bounds test:
+    ranges from the slots' bounding box to the track, plus the largest Doppler shift
+    ``f_c v / K`` in range, one bin of margin."""
+    low_corner, high_corner = centres.min(axis=0) - reach, centres.max(axis=0) + reach
+    nearest = np.linalg.norm(positions - np.clip(positions, low_corner, high_corner),
+                             axis=-1).min()
+    corners = np.array(np.meshgrid(*zip(low_corner, high_corner, strict=True),
+                                   indexing="ij")).reshape(3, -1).T
+    farthest = np.linalg.norm(positions[:, None] - corners[None], axis=-1).max()
+    shift = radar.carrier_frequency * float(np.linalg.norm(velocities, axis=-1).max()) \
+        / radar.chirp_rate
+    step = frequency[1] - frequency[0]
+    first = (radar.beat_frequency(max(nearest - shift, 0.0)) - frequency[0]) / step
+    last = (radar.beat_frequency(farthest + shift) - frequency[0]) / step
+    return bool(first >= 1 and last <= len(frequency) - 3)
+
+
+def backproject_tiled(profile: NDArray, frequency: NDArray, radar: Radar, pixels: NDArray,
+                      positions: NDArray, velocities: NDArray, centroid_sine: NDArray,
+                      half_width: float, window: NDArray, motion_correction: bool = True,
+                      sweep_range: tuple[NDArray, NDArray] | None = None,
+                      aspect: tuple[NDArray, NDArray] | None = None,
+                      row_length: int | None = None) -> tuple[NDArray, NDArray, dict]:
+    """Back-projection by lanes of neighbouring pixels (module docstring).
+
+    Parameters as :func:`mitsar.focus.backprojection.backproject_drjit` (monostatic only),
+    plus ``row_length``: pixels per row of the grid the pixels come from in row-major order
+    (the lanes follow rows), None for points in no particular layout.
+
+    Returns
+    -------
+    weighted_sum : ndarray, shape (P,), complex
+    total_weight : ndarray, shape (P,)
+    info : dict
+        ``lane_pixels`` (G used, 0 if none), ``exact_pixels`` (pixels sent to the exact
+        kernel), ``row_step`` (1 when the lanes are regular row segments) and
+        ``predicted_phase_error`` [rad], the largest of eq. (1) over the lanes used.
+    """
+    count = len(pixels)
+    info = {"lane_pixels": 0, "exact_pixels": count, "row_step": 0,
+            "predicted_phase_error": 0.0}
+    if count == 0:
+        return np.zeros(0, dtype=complex), np.zeros(0), info
+    sweeps = profile.shape[0]
+    if sweep_range is None:
+        sweep_range = (np.zeros(count, np.uint32), np.full(count, sweeps, np.uint32))
+    first, end = (np.asarray(r, dtype=np.int64) for r in sweep_range)
+    top_wavenumber = (4 * math.pi * (radar.carrier_frequency + radar.bandwidth / 2)
+                      / SPEED_OF_LIGHT)
+    if row_length is not None and row_length < min(LANE_SIZES):
+        row_length = None  # rows too short to fill a lane: groups of consecutive points
+    step = row_step(pixels, row_length)
+    sizes = [s for s in LANE_SIZES if row_length is None or s <= row_length] or [LANE_SIZES[-1]]
+    for size in sizes:
+        groups, centre, offsets, error = _lanes(pixels, row_length, size, step, positions,
+                                                PHASE_LIMIT / top_wavenumber)
+        good = top_wavenumber * error <= PHASE_LIMIT
+        if good.all():
+            break
+    if not good.any():  # no lane qualifies: the exact kernel for all
+        values, totals = backproject_drjit(profile, frequency, radar, pixels, positions,
+                                           velocities, centroid_sine, half_width, window,
+                                           motion_correction, sweep_range, aspect)
+        return values, totals, info
+    weighted_sum = np.zeros(count, dtype=complex)
+    total = np.zeros(count)
+    lanes = groups[good]
+    valid = lanes >= 0
+    rows = np.where(valid, lanes, 0)
+    lane_first = np.where(valid, first[rows], sweeps).min(axis=1)
+    lane_end = np.where(valid, end[rows], 0).max(axis=1)
+    lane_first = np.minimum(lane_first, lane_end)
+    order = np.argsort(lane_first, kind="stable")  # lanes of a SIMD packet share sweeps
+    lanes, valid, rows = lanes[order], valid[order], rows[order]
+    frames = None
+    if aspect is not None:  # per pixel: window direction (3) and centre sine
+        frames = np.column_stack([aspect[0], aspect[1]])[rows]
+    reach = float(np.abs(offsets).max(initial=0.0)) * math.sqrt(3)  # pixel to lane centre
+    checked = not _lookups_inside(frequency, radar, centre[good], positions, velocities, reach)
+    sums, totals = _run_lanes(profile, frequency, radar, centre[good][order],
+                              offsets[good][order] if step is None else step, lane_first[order],
+                              lane_end[order], frames, positions, velocities, centroid_sine,
+                              half_width, window, motion_correction, checked,
+                              groups.shape[1])
+    keep = valid.ravel()
+    weighted_sum[lanes.ravel()[keep]] = sums.ravel()[keep]
+    total[lanes.ravel()[keep]] = totals.ravel()[keep]
+    rest = groups[~good]
+    rest = np.sort(rest[rest >= 0])
+    if len(rest):
+        values, totals_rest = backproject_drjit(
+            profile, frequency, radar, pixels[rest], positions, velocities, centroid_sine,
+            half_width, window, motion_correction, (first[rest], end[rest]),
+            None if aspect is None else (aspect[0][rest], aspect[1][rest]))
+        weighted_sum[rest], total[rest] = values, totals_rest
+    return weighted_sum, total, {
+        "lane_pixels": int(groups.shape[1]), "exact_pixels": int(len(rest)),
+        "row_step": int(step is not None),
+        "predicted_phase_error": float(top_wavenumber * error[good].max())}
+
+
+SWEEP_PARTS = 8
+"""The sweeps are cut into this many equal parts, and a lane's sum over each part runs in a
+kernel lane of its own (summed afterwards in float64): the LLVM backend hands its threads
+blocks of 16384 kernel lanes, and a grid of a few hundred pixels a side has too few pixel
+groups to keep two cores busy. The parts depend on the sweep count only, so a pixel's sum
+does not depend on which other pixels are focused with it (a volume slice equals the plane
+image bit for bit)."""
+
+
+def _run_lanes(profile: NDArray, frequency: NDArray, radar: Radar, centre: NDArray,
+               offsets: NDArray, lane_first: NDArray, lane_end: NDArray,
+               frames: NDArray | None, positions: NDArray, velocities: NDArray,
+               centroid_sine: NDArray, half_width: float, window: NDArray,
+               motion_correction: bool, checked: bool, size: int) -> tuple[NDArray, NDArray]:
+    """The Dr.Jit kernel over lanes: sums (L, G) complex and weight totals (L, G).
+
+    ``offsets``: (L, G, 3) pixel offsets, or the row step (3,) of regular lanes. A lane's
+    sweeps run in one kernel lane per part of :data:`SWEEP_PARTS` that they touch; the parts
+    are summed here. ``checked``: test every lookup against the profile's ends (else
+    :func:`_lookups_inside` holds).
+    """
+    jit = array_namespace()
+    Float32, Float64, UInt32 = jit.Float32, jit.Float64, jit.UInt32
+    lanes = len(centre)
+    regular = offsets.ndim == 1
+    constants, sweep_arrays, _ = kernel_tables(profile[:, :2], frequency[:2], radar, positions,
+                                               velocities, centroid_sine, half_width,
+                                               window, motion_correction)
+    constants["bins"] = dr.opaque(UInt32, profile.shape[1])
+    # (value, next value - value) per bin as four float32: one 128-bit packet per lookup
+    packets = np.empty((*profile.shape, 2), dtype=np.complex64)
+    packets[..., 0] = profile
+    np.subtract(packets[:, 1:, 0], packets[:, :-1, 0], out=packets[:, :-1, 1])
+    packets[:, -1, 1] = 0
+    pairs = jit_array(Float32, packets.view(np.float32).ravel(), np.float32)
+    sweeps = len(positions)
+    span = -(-sweeps // SWEEP_PARTS)          # a part: sweeps [j span, (j + 1) span)
+    first_part = lane_first // span
+    splits = int(max(1, ((np.maximum(lane_end, lane_first + 1) - 1) // span
+                         - first_part).max(initial=0) + 1))
+    edges = (first_part[None] + np.arange(splits + 1)[:, None]) * span  # (splits + 1, L)
+    bounds = np.clip(edges, lane_first[None], lane_end[None])
+    which = dr.arange(UInt32, lanes * splits) % dr.opaque(UInt32, lanes)  # split-major
+
+    def per_lane(kind: type, values: NDArray, dtype: type) -> Any:
+        return dr.gather(kind, jit_array(kind, values, dtype), which)
+
+    lane = {"centre": [per_lane(Float64, centre[:, i], np.float64) for i in range(3)],
+            "step": [dr.opaque(Float32, float(v)) for v in offsets] if regular else None,
+            "offsets": None if regular else
+            [[per_lane(Float32, offsets[:, g, i], np.float32) for i in range(3)]
+             for g in range(size)],
+            "frames": None if frames is None else
+            [[per_lane(Float32, frames[:, g, i], np.float32) for i in range(4)]
+             for g in range(frames.shape[1])],
+            "size": size, "checked": checked}
+    first = jit_array(UInt32, bounds[:-1].ravel(), np.uint32)
+    end = jit_array(UInt32, bounds[1:].ravel(), np.uint32)
+    result = lane_loop(lane, first, end, sweep_arrays, pairs, constants, lanes * splits)
+    dr.eval(*result)
+    # the parts of every lane summed in float64, one accumulator at a time (no big copies)
+    parts = np.stack([np.add.reduce(np.asarray(r).reshape(splits, lanes), axis=0,
+                                    dtype=np.float64) for r in result]).reshape(size, 3, lanes)
+    return (parts[:, 0] + 1j * parts[:, 1]).T, parts[:, 2].T
+
+
+def lane_loop(lane: dict, first: Any, end: Any, sweep_arrays: list, pairs: Any,
+              constants: dict, lanes: int) -> list:
+    """Symbolic loop over sweeps for lanes of pixels sharing a centre (module docstring,
+    steps 2-4); three float32 accumulators (real, imaginary, weight) per pixel.
+
+    ``lane``: ``centre`` (3 float64 arrays), then either ``step`` (the row step A, 3 opaque
+    float32: slot g at ``c + (g - (G - 1) / 2) A``, G = ``size``) or ``offsets`` (per slot,
+    3 float32 arrays), optionally ``frames`` (per slot: aspect direction and centre sine),
+    and ``checked`` (test the lookups against the profile's ends).
+    """
+    jit = namespace_of(first)
+    Float32, Int32, UInt32 = jit.Float32, jit.Int32, jit.UInt32
+    cx, cy, cz = lane["centre"]
+    step = lane["step"]
+    if step is not None:
+        size = lane["size"]
+        slots = [g - (size - 1) / 2 for g in range(size)]
+        step_norm2 = dr.fma(step[0], step[0], dr.fma(step[1], step[1], step[2] * step[2]))
+        pixels = [(m, None, m * m * step_norm2) for m in slots]
+    else:
+        pixels = [(None, (dx, dy, dz), dr.fma(dx, dx, dr.fma(dy, dy, dz * dz)))
+                  for dx, dy, dz in lane["offsets"]]
+    frames = lane["frames"] or [None] * len(pixels)
+    bins, half_width = constants["bins"], constants["half_width"]
+    bins_per_metre = Float32(constants["range_scale"])
+    half_turns_per_metre = 0.5 * Float32(constants["carrier_scale"])
+    rectangular = list(constants["coefficients"]) == [1.0, 0.0, 0.0, 0.0]  # weight 1 or 0
+    coefficients = constants["coefficients"]
+    inverse_width = 1.0 / (2.0 * half_width)
+    last_bin = Int32(bins - 1)
+
+    start_row: list = [None]  # the sweep's first flat index, for the bounds test
+
+    def condition(k: Any, *_: Any) -> Any:
+        return k < end
+
+    def body(k: Any, *accumulators: Any) -> tuple:
+        gx, gy, gz, vx, vy, vz, speed, centroid = (dr.gather(type(a), a, k)
+                                                   for a in sweep_arrays[:8])
+        wx, wy, wz = cx - gx, cy - gy, cz - gz                      # float64
+        r = dr.sqrt(wx * wx + wy * wy + wz * wz)
+        inverse = dr.rcp(r)
+        ux, uy, uz = Float32(wx * inverse), Float32(wy * inverse), Float32(wz * inverse)
+        inverse32 = Float32(inverse)
+        half_inverse = Float32(0.5 * inverse)
+        half_inverse2 = Float32(0.5 * inverse * inverse)
+        lower, fraction = profile_position(r * constants["range_scale"],
+                                           -constants["index_offset"], 1.0, dr.floor)
+        base = Int32(lower)
+        fraction = Float32(fraction)
+        turns = Float32(carrier_turns(r, constants["carrier_scale"], dr.floor))
+        fx32, fy32, fz32 = Float32(wx), Float32(wy), Float32(wz)
+        along = fx32 * vx + fy32 * vy + fz32 * vz                     # v . w
+        doppler = constants["doppler_scale"] * speed
+        if step is not None:  # per lane and sweep: A . u, and the direction sine of slot m
+            # s(m) = s_c + m c_1 + m^2 c_2 + O((m |A| / r)^3), from v.(w + m A) / |w + m A|
+            # with alpha = A.u / r, beta = A.v / r, gamma = |A|^2 / r^2 (eq. 2)
+            step_u = dr.fma(step[0], ux, dr.fma(step[1], uy, step[2] * uz))
+            alpha = step_u * inverse32
+            beta = dr.fma(step[0], vx, dr.fma(step[1], vy, step[2] * vz)) * inverse32
+            gamma = step_norm2 * inverse32 * inverse32
+            sine_centre = along * inverse32
+            sine_1 = dr.fma(-sine_centre, alpha, beta)
+            sine_2 = dr.fma(sine_centre, dr.fma(1.5 * alpha, alpha, -0.5 * gamma),
+                            -alpha * beta)
+            # eq. (1) on the row: delta(m) = m (d_1 + m (d_2 + m d_3)); the lookup position
+            # and the phase are cubics in m, the window offset a quadratic (Horner's rule)
+            across = dr.fma(-step_u, step_u, step_norm2)       # |A|^2 - (A.u)^2
+            d_2, d_3 = across * half_inverse, -step_u * across * half_inverse2
+            position = (dr.fma(doppler, sine_centre, fraction),
+                        dr.fma(bins_per_metre, step_u, doppler * sine_1),
+                        dr.fma(bins_per_metre, d_2, doppler * sine_2), bins_per_metre * d_3)
+            cycles = (0.5 * turns, half_turns_per_metre * step_u, half_turns_per_metre * d_2,
+                      half_turns_per_metre * d_3)   # half turns (sincos_half_turns)
+            window_offset = (sine_centre - centroid, sine_1, sine_2)
+        row = Int32(k * bins)
+        start = row + base   # flat index of the lane centre's bin
+        start_row[0] = row
+        out = []
+        for g, ((m, offset_xyz, dd), frame) in enumerate(zip(pixels, frames, strict=True)):
+            if offset_xyz is None and frame is None:  # a regular row (eqs. 1-2 in m)
+                shift, frac = profile_position(_horner(position, m), 0.0, 1.0, dr.floor)
+                phase = _horner(cycles, m)
+                offset = _horner(window_offset, m)
+                out += _accumulate(shift, frac, phase, offset, start, accumulators[3 * g:])
+                continue
+            if offset_xyz is None:
+                a = m * step_u
+            else:
+                dx, dy, dz = offset_xyz
+                a = dr.fma(dx, ux, dr.fma(dy, uy, dz * uz))
+            b = dr.fma(-a, a, dd)
+            delta = dr.fma(b, dr.fma(-a, half_inverse2, half_inverse), a)     # eq. (1)
+            ratio = delta * inverse32   # 1 / (r + delta) to second order in delta / r
+            inverse_range = dr.fma(inverse32, dr.fma(ratio, ratio, -ratio), inverse32)
+            if offset_xyz is None:
+                dx, dy, dz = m * step[0], m * step[1], m * step[2]
+            sine = (along + dr.fma(dx, vx, dr.fma(dy, vy, dz * vz))) * inverse_range
+            shift, frac = profile_position(dr.fma(delta, bins_per_metre,
+                                                  dr.fma(doppler, sine, fraction)),
+                                           0.0, 1.0, dr.floor)
+            if frame is None:
+                offset = sine - centroid
+            else:  # aspect-angle window: the pixel's own direction and centre sine
+                fx, fy, fz, centre_sine = frame
+                offset = (dr.fma(fx32 + dx, fx, dr.fma(fy32 + dy, fy, (fz32 + dz) * fz))
+                          * inverse_range - centre_sine)
+            phase = dr.fma(delta, half_turns_per_metre, 0.5 * turns)
+            out += _accumulate(shift, frac, phase, offset, start, accumulators[3 * g:])
+        return (k + 1, *out)
+
+    def _accumulate(shift: Any, frac: Any, phase: Any, offset: Any, start: Any,
+                    sums: tuple) -> list:
+        """Steps 2-4 of :mod:`mitsar.focus.backprojection` for one pixel: window, lookup,
+        linear interpolation, de-rotation, weighted sums (real, imaginary, weight)."""
+        active = dr.abs(offset) <= half_width
+        flat = start + Int32(shift)
+        if lane["checked"]:
+            local = flat - start_row[0]
+            active &= (local >= 0) & (local < last_bin)
+            flat = dr.select(active, flat, 0)
+        taps = dr.gather(jit.Array4f, pairs, UInt32(flat), active)
+        v_real = dr.fma(taps[2], frac, taps[0])   # value + fraction x difference
+        v_imag = dr.fma(taps[3], frac, taps[1])
+        # phase in half turns (the coefficients carry the 1/2), wrapped to [-1/4, 1/4]
+        sin_phase, cos_phase = sincos_half_turns(dr.fma(dr.round(phase + phase), -0.5,
+                                                        phase))
+        if rectangular:  # inactive lanes gathered zeros: no weight to multiply by
+            weight = dr.select(active, 1.0, 0.0)
+        else:
+            weight = dr.select(active, cosine_series(coefficients, offset * inverse_width,
+                                                     _cos_turns), 0.0)
+            sin_phase, cos_phase = weight * sin_phase, weight * cos_phase
+        # derotate (backprojection.derotate) and accumulate, fused
+        return [dr.fma(v_real, cos_phase, dr.fma(v_imag, sin_phase, sums[0])),
+                dr.fma(v_imag, cos_phase, dr.fma(-v_real, sin_phase, sums[1])),
+                sums[2] + weight]
+
+    state = (UInt32(first), *[dr.zeros(Float32, lanes) for _ in range(3 * len(pixels))])
+    return list(dr.while_loop(state, condition, body)[1:])

@@ -1,0 +1,143 @@
+"""Exact back-projection by pixel groups (mitsar.focus.bp_tiled) against the float64 NumPy sum.
+
+``focus(raw, "bpa", grid)`` on the Dr.Jit backend sums every grid by row segments: float64
+range and phase once per segment and sweep, each pixel's offset from the segment centre to
+third order in float32 (docs/focusing.md, "Exact BPA by pixel groups"). Tolerance -80 dB of
+the image against ``backend="numpy"`` (float64 per pixel and sweep, the same 16x profiles):
+the expansion is admitted only below 1e-4 rad of phase per term (PHASE_LIMIT, -80 dB even if
+every term erred by that much in the same direction), the float32 offsets and phase leave
+~1e-5 rad (-100 dB); the issue's requirement is -60 dB. A pixel mixed up with another, a sweep
+dropped or a wrong sign would be off by -20 dB or worse.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+import mitsar
+from mitsar.backend import array_namespace
+from mitsar.focus.backprojection import backproject_drjit, backproject_numpy
+from mitsar.focus.bp_tiled import (
+    LANE_SIZES,
+    PHASE_LIMIT,
+    backproject_tiled,
+    lane_layout,
+    row_step,
+    sincos_turns,
+)
+from mitsar.focus.compression import range_spectrum
+from mitsar.focus.grid import PlaneGrid, PointsGrid, SlantGrid
+from mitsar.focus.windows import window_coefficients
+
+RADAR = mitsar.Radar()
+TARGET = np.array([15.0, 8.0, 0.0])
+LOOK = mitsar.Look(math.degrees(math.atan2(6.6, 4.5)))
+TOLERANCE_DB = -80.0
+
+
+def _error_db(values, reference):
+    return 20 * math.log10(np.linalg.norm(values - reference) / np.linalg.norm(reference))
+
+
+@pytest.fixture(scope="module")
+def raw():
+    trajectory = mitsar.Trajectory.linear([14.6, 1.4, 4.5], [0.5, 0, 0], 1.6)
+    return mitsar.simulate_point_targets(RADAR, trajectory, LOOK, [mitsar.PointTarget(TARGET)],
+                                         normalized=True)
+
+
+@pytest.fixture(scope="module")
+def turn():
+    """A 20-degree left turn of 10 m radius past the target (curved track: aspect window)."""
+    turn = math.radians(20.0)
+    points = [[12.0, 1.4, 4.5], [15.0, 1.4, 4.5],
+              [15.0 + 3 * math.cos(turn), 1.4 + 3 * math.sin(turn), 4.5]]
+    track = mitsar.Trajectory.flight(points, 0.5, turn_radius=10.0)
+    return mitsar.simulate_point_targets(RADAR, track, mitsar.Look(55.7),
+                                         [mitsar.PointTarget([15.0, 8.0, 0.0])],
+                                         normalized=True)
+
+
+@pytest.mark.parametrize(("grid", "options"), [
+    (PlaneGrid(origin=TARGET, axis_u=[1, 0, 0], axis_v=[0, 1, 0], u=[-0.15, 0.15, 0.004],
+               v=[-0.1, 0.1, 0.005]), {}),
+    (PlaneGrid(origin=TARGET, axis_u=[1, 0, 0], axis_v=[0, 1, 0], u=[-0.15, 0.15, 0.004],
+               v=[-0.1, 0.1, 0.005]), {"window": "hamming", "azimuth_resolution": 0.05}),
+    (SlantGrid(along_track=[0.2, 0.6, 0.005], slant_range=[7.85, 8.15, 0.01]),
+     {"window": "taylor"}),
+], ids=["plane-whole-beam", "plane-hamming-5cm", "slant-taylor"])
+def test_focus_by_pixel_groups_matches_the_float64_sum(raw, grid, options):
+    fast = mitsar.focus(raw, "bpa", grid, **options)
+    reference = mitsar.focus(raw, "bpa", grid, backend="numpy", **options)
+    assert fast.attrs["bp_kernel"] == "tiled"  # the fast path is taken on regular grids
+    assert reference.attrs["bp_kernel"] == "numpy"
+    assert _error_db(fast["image"].values, reference["image"].values) <= TOLERANCE_DB
+    np.testing.assert_allclose(fast["coverage"].values, reference["coverage"].values,
+                               atol=1e-5)
+
+
+def test_curved_track_aspect_window_by_pixel_groups(turn):
+    """A band narrower than the beam on a turn: the window on each pixel's aspect angle."""
+    grid = PlaneGrid(origin=[15.0, 8.0, 0.0], axis_u=[1, 0, 0], axis_v=[0, 1, 0],
+                     u=[-0.1, 0.1, 0.004], v=[-0.06, 0.06, 0.004])
+    fast = mitsar.focus(turn, "bpa", grid, azimuth_resolution=0.1, window="hamming")
+    reference = mitsar.focus(turn, "bpa", grid, azimuth_resolution=0.1, window="hamming",
+                             backend="numpy")
+    assert fast.attrs["bp_kernel"] == "tiled"
+    assert _error_db(fast["image"].values, reference["image"].values) <= TOLERANCE_DB
+
+
+def test_scattered_points_fall_back_to_the_exact_kernel_where_a_group_is_too_wide(raw):
+    """Points in no layout: groups of consecutive points where they are close enough,
+    the exact kernel for the rest; the image is the float64 sum either way."""
+    rng = np.random.default_rng(5)
+    close = TARGET + rng.uniform(-0.01, 0.01, (40, 3)) * [1, 1, 0]
+    far = TARGET + rng.uniform(-0.6, 0.6, (24, 3)) * [1, 1, 0]
+    points = np.concatenate([close, far])
+    fast = mitsar.focus(raw, "bpa", PointsGrid(points))
+    reference = mitsar.focus(raw, "bpa", PointsGrid(points), backend="numpy")
+    assert fast.attrs["bp_kernel"] == "tiled+exact"
+    assert _error_db(fast["image"].values, reference["image"].values) <= TOLERANCE_DB
+
+
+def test_kernels_against_numpy_directly(raw):
+    """The group kernel, and the exact kernel it falls back to, against the float64 sum on
+    the same pixels and sweeps: -80 dB for groups, 1e-6 of the peak for the exact kernel
+    (float64 range per pixel; sin/cos and sums float32)."""
+    frequency, profile = range_spectrum(raw["raw"].values, RADAR, upsample=16)
+    positions = raw["platform_position"].values
+    velocities = raw["platform_velocity"].values
+    centroid = raw["boresight"].values @ np.array([1.0, 0, 0])
+    u, v = np.meshgrid(np.arange(-0.1, 0.1, 0.004), np.arange(-0.05, 0.05, 0.005))
+    pixels = TARGET + np.stack([u, v, 0 * u], -1).reshape(-1, 3)
+    arguments = (profile, frequency, RADAR, pixels, positions, velocities, centroid, 0.15,
+                 window_coefficients("hann"))
+    reference, reference_total = backproject_numpy(*arguments)
+    grouped, total, info = backproject_tiled(*arguments, row_length=u.shape[1])
+    assert info["lane_pixels"] == LANE_SIZES[0] and info["row_step"] == 1
+    assert info["exact_pixels"] == 0
+    assert info["predicted_phase_error"] <= PHASE_LIMIT
+    assert _error_db(grouped, reference) <= TOLERANCE_DB
+    np.testing.assert_allclose(total, reference_total, rtol=1e-5)
+    exact, _ = backproject_drjit(*arguments)
+    assert np.abs(exact - reference).max() <= 1e-6 * np.abs(reference).max()
+
+
+def test_lanes_follow_rows_and_regular_rows_are_recognised():
+    layout = lane_layout(10, 5, 4)  # two rows of five pixels: no lane straddles a row
+    assert layout.tolist() == [[0, 1, 2, 3], [4, -1, -1, -1], [5, 6, 7, 8], [9, -1, -1, -1]]
+    grid = np.stack(np.meshgrid(np.arange(3.0), np.arange(5.0), [0.0], indexing="ij"),
+                    -1).reshape(-1, 3)
+    assert np.allclose(row_step(grid, 5), [0, 1, 0])
+    jittered = grid.copy()
+    jittered[7, 0] += 1e-6
+    assert row_step(jittered, 5) is None and row_step(grid, None) is None
+
+
+def test_sincos_in_turns_is_float32_accurate():
+    jit = array_namespace()
+    turns = np.linspace(-0.5, 0.5, 100001)
+    sine, cosine = sincos_turns(jit.Float32(turns.astype(np.float32)))
+    assert np.abs(np.asarray(sine) - np.sin(2 * np.pi * turns)).max() < 1.5e-6
+    assert np.abs(np.asarray(cosine) - np.cos(2 * np.pi * turns)).max() < 1.5e-6
