@@ -265,3 +265,24 @@ def test_bundled_pass_examples_run(name, tmp_path):
     assert record["metrics"]["bpa passes"]["peak_offset_m"] < 0.01
     assert main(["run", str(example_path(name)), "-o", str(out), "-q"]) == 2   # no overwrite
     assert name not in demo_examples()     # the demo runs one acquisition
+
+
+
+def test_mapping_table_is_validated_at_load():
+    """``[mapping]`` (issue 23): defaults, bounds refused by key, and a scene required (the map
+    is scored against the scene's own ground truth)."""
+    from mitsar.experiment.examples import example_path
+    from mitsar.experiment.loading import experiment_from_dict, read_toml
+
+    document = read_toml(example_path("mapping_trihedral_passes"))
+    experiment = experiment_from_dict(document)
+    assert experiment.mapping.pfa == 1e-6 and experiment.mapping.method == "ca"
+    for key, value in (("pfa", 1.5), ("method", "median"), ("tau", -0.1),
+                       ("elevation_window", "boxcar"), ("threshold", 3)):
+        bad = {**document, "mapping": {**document["mapping"], key: value}}
+        with pytest.raises(ParameterError, match=f"mapping.{key}"):
+            experiment_from_dict(bad)
+    no_scene = {key: value for key, value in document.items() if key != "scene"}
+    no_scene["targets"] = [{"position": [0.0, 10.0, 0.0]}]
+    with pytest.raises(ParameterError, match="scene"):
+        experiment_from_dict(no_scene)

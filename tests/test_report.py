@@ -41,6 +41,11 @@ def test_every_bundled_experiment_runs_to_a_report_that_renders(name, tmp_path):
     if record["kind"] != "ambiguity":  # one raw product, or one per pass ([[passes]])
         assert "raw.nc" in record["products"] or "raw_pass0.nc" in record["products"]
         assert record["provenance"]["seeds"]["simulation"] is not None
+    if "mapping" in record:  # [mapping]: the map's products, scores and features
+        assert {"mapping/detections.nc", "mapping/map_scores.nc"} <= set(record["products"])
+        scores = {row[0]: row[1] for row in record["mapping"]["scores"]}
+        assert 0.0 <= scores["precision"] <= 1.0 and 0.0 <= scores["f_score"] <= 1.0
+        assert record["mapping"]["features"], "the scene's corner features are scored"
     if BROWSER is None:
         pytest.skip("no headless browser (chromium-headless-shell or chromium): install "
                     "Debian's chromium-headless-shell, as scripts/setup.sh does")

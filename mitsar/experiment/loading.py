@@ -3,7 +3,8 @@
 An experiment file has the tables ``[radar]``, ``[trajectory]``, ``[look]``, ``[[passes]]``
 (optional: several acquisitions, each inheriting ``[trajectory]`` and ``[look]``),
 ``[[targets]]``, ``[background]`` (optional), ``[simulation]``, ``[focus]`` (with ``[focus.grid]``),
-``[metrics]`` and ``[interferometry]`` (optional, for a radar with several receivers), and
+``[metrics]``, ``[interferometry]`` (optional, for a radar with several receivers),
+``[mapping]`` (optional: map the scene from the passes and score it), and
 the optional top-level keys ``name``, ``description`` and ``scene``. Every key,
 its type, unit and default is documented in ``docs/experiments.md``.
 
@@ -35,6 +36,7 @@ from mitsar.experiment.parsers import (
     parse_grid,
     parse_interferometry,
     parse_look,
+    parse_mapping,
     parse_metrics,
     parse_motion,
     parse_pass,
@@ -139,6 +141,10 @@ def experiment_from_dict(data: Mapping[str, Any], source: str | os.PathLike | No
     interferometry = parse_interferometry(interferometry_table, radar.channel_count)
     if interferometry_table is not None:
         top.out["interferometry"] = interferometry_table.out
+    mapping_table = top.table("mapping")
+    mapping = parse_mapping(mapping_table, scene is not None)
+    if mapping_table is not None:
+        top.out["mapping"] = mapping_table.out
     top.finish()
     config = json.loads(json.dumps(top.out))
     return Experiment(radar=radar, trajectory=trajectory, navigation=navigation, look=look,
@@ -148,7 +154,7 @@ def experiment_from_dict(data: Mapping[str, Any], source: str | os.PathLike | No
                       motion=motion, interferometry=interferometry, name=name,
                       description=description,
                       source=Path(source).resolve() if source is not None else None,
-                      config=config, passes=passes)
+                      config=config, passes=passes, mapping=mapping)
 
 
 def _radar_config(radar: Radar) -> dict[str, Any]:

@@ -131,6 +131,32 @@ class InterferometryOptions:
     min_coherence: float = 0.3
 
 
+@dataclass(frozen=True)
+class MappingOptions:
+    """Mapping options (``[mapping]``; :func:`mitsar.map_scene`, docs/features.md): what
+    ``mitsar run`` does with the passes of an experiment over a scene.
+
+    Attributes
+    ----------
+    pfa : float
+        CFAR false-alarm probability per voxel (0 < pfa < 1).
+    method : {"ca", "os"}
+        CFAR method (cell-averaging or ordered-statistic).
+    tau : float
+        Distance threshold of the map scores [m].
+    combine : {"coherent", "incoherent"}
+        How the passes are summed in the volume.
+    elevation_window : str or None
+        Window across the passes ("hamming", ...), or none.
+    """
+
+    pfa: float = 1e-6
+    method: str = "ca"
+    tau: float = 0.05
+    combine: str = "coherent"
+    elevation_window: str | None = None
+
+
 PASS_SEED_RULE = "numpy.random.SeedSequence(seed, spawn_key=(pass index,)), first 64-bit word >> 1"
 """How a pass's seeds follow from the experiment's (:func:`pass_seed`; recorded in products)."""
 
@@ -228,6 +254,9 @@ class Experiment:
     config : dict
         The effective configuration (defaults filled in, paths resolved); JSON-serialisable,
         and :func:`experiment_from_dict` of it gives the same experiment.
+    mapping : MappingOptions or None
+        ``[mapping]``: map the scene from the passes and score the map against it
+        (``mitsar run``; None: no map).
     passes : tuple of Pass
         ``[[passes]]``: several acquisitions of one scene (empty: one acquisition). With
         passes, ``trajectory``, ``look`` and ``navigation`` above are pass 0's, so that a tool
@@ -251,6 +280,7 @@ class Experiment:
     source: Path | None = None
     config: dict[str, Any] = field(default_factory=dict)
     passes: tuple[Pass, ...] = ()
+    mapping: MappingOptions | None = None
 
     def pass_seed(self, index: int) -> int:
         """Receiver-noise seed of pass ``index``: the pass's ``seed`` when the file gives one,

@@ -27,6 +27,7 @@ from mitsar.experiment.options import (
     WINDOWS,
     FocusOptions,
     InterferometryOptions,
+    MappingOptions,
     MetricsOptions,
     Pass,
     pass_seed,
@@ -438,6 +439,26 @@ def parse_interferometry(t: Table | None, channels: int = 2) -> InterferometryOp
     min_coherence = t.number("min_coherence", 0.3, ge=0.0, le=1.0)
     t.finish()
     return InterferometryOptions(pair, looks, bool(unwrap), float(min_coherence))
+
+
+def parse_mapping(t: Table | None, has_scene: bool) -> MappingOptions | None:
+    """``[mapping]``: CFAR ``pfa`` and ``method``, score threshold ``tau`` [m], ``combine`` and
+    ``elevation_window`` of the map ``mitsar run`` makes from an experiment's passes over its
+    scene (docs/features.md); None without the table."""
+    if t is None:
+        return None
+    if not has_scene:
+        raise ParameterError(t.where, t.path or "mapping", "a scene to map and score against "
+                             "(scene = \"control_volume\" or an XML file) for a [mapping] table",
+                             "no scene")
+    options = MappingOptions(
+        pfa=t.number("pfa", 1e-6, gt=0.0, lt=1.0),
+        method=t.string("method", "ca", choices=("ca", "os")),
+        tau=t.number("tau", 0.05, unit="m", gt=0.0),
+        combine=t.string("combine", "coherent", choices=("coherent", "incoherent")),
+        elevation_window=t.string("elevation_window", None, choices=tuple(WINDOWS)))
+    t.finish()
+    return options
 
 
 def parse_motion(t: Table | None) -> dict[str, Motion]:

@@ -60,6 +60,13 @@ from mitsar.experiment.interferometry import (
     write_interferometry,
 )
 from mitsar.experiment.loading import apply_overrides, experiment_from_dict, read_toml
+from mitsar.experiment.mapping import (
+    MAPPING_FILES,
+    MAPPING_FOLDER,
+    mapping_figure,
+    mapping_summary,
+    run_mapping,
+)
 from mitsar.experiment.options import ALGORITHMS, Experiment
 from mitsar.experiment.paper import paper_table
 from mitsar.experiment.rays import run_rays
@@ -69,6 +76,7 @@ from mitsar.experiment.runs import (
     run_metrics,
     simulate_passes,
 )
+from mitsar.features.scores import scores_dataset
 from mitsar.io import ProductFileError, WorkFolder, check_writable, file_digest, write_json
 from mitsar.plots import navigation as plots_navigation
 from mitsar.plots.figures import plot_cuts, plot_image, target_marks
@@ -313,6 +321,47 @@ def _passes(run: RunFolder, experiment: Experiment, algorithms: Sequence[str], s
                "antenna tracks of every pass, seen from above and across the tracks")
     if len(raws) > 1:
         _combined(run, experiment, raws, algorithms, progress)
+    if experiment.mapping is not None:
+        _mapping(run, experiment, raws, scene)
+
+
+def _mapping(run: RunFolder, experiment: Experiment, raws: Sequence[Any], scene: Any) -> None:
+    """``[mapping]``: the map of the scene from every pass and its scores against the scene
+    (:func:`mitsar.experiment.mapping.run_mapping`): the detections and the scores as products
+    in :data:`MAPPING_FOLDER`, the scores and the features' verdicts as tables, the map over
+    the truth as a figure; ``record["mapping"]`` holds the summary."""
+    start = time.perf_counter()
+    try:
+        result = run_mapping(raws, scene if scene is not None else experiment.scene,
+                             experiment.mapping)
+    except MitsarError as error:
+        run.warn(f"mapping: not made: {error}")
+        return
+    run.step("mapping", start)
+    (run.out / MAPPING_FOLDER).mkdir(exist_ok=True)
+    run.product(result.detections, f"{MAPPING_FOLDER}/{MAPPING_FILES['detections']}")
+    run.product(scores_dataset(result.scores), f"{MAPPING_FOLDER}/{MAPPING_FILES['scores']}")
+    summary = mapping_summary(result)
+    run.record["mapping"] = summary
+    options = experiment.mapping
+    run.record["tables"].append({
+        "title": f"Map of the scene from {len(raws)} passes against its ground truth "
+                 f"({options.method.upper()}-CFAR, pfa {options.pfa:g}, tau {options.tau:g} m; "
+                 "docs/features.md)",
+        "header": ["score", "value", "units", "meaning"],
+        "rows": [[name, round(value, 4), units, meaning]
+                 for name, value, units, meaning in summary["scores"]]})
+    if summary["features"]:
+        run.record["tables"].append({
+            "title": "Map features of the scene (found within one resolution cell, missed, or "
+                     "not visible from the passes)",
+            "header": ["kind", "status", "position [m]", "localisation error [m]"],
+            "rows": [[f["kind"], f["status"], f["position"], f["error_m"]]
+                     for f in summary["features"]]})
+    run.figure(mapping_figure(result), f"{MAPPING_FOLDER}/{MAPPING_FILES['figure']}",
+               "Map of the scene",
+               f"{summary['detections']} point features; detected cells over the scene's "
+               "surface, scored features found (circle) or not (cross)")
 
 
 COMBINED_IMAGE = "image_{algorithm}_passes.nc"
