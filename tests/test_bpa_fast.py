@@ -141,3 +141,27 @@ def test_sincos_in_turns_is_float32_accurate():
     sine, cosine = sincos_turns(jit.Float32(turns.astype(np.float32)))
     assert np.abs(np.asarray(sine) - np.sin(2 * np.pi * turns)).max() < 1.5e-6
     assert np.abs(np.asarray(cosine) - np.cos(2 * np.pi * turns)).max() < 1.5e-6
+
+
+def test_lookups_off_the_profile_are_masked_as_in_the_float64_sum(raw):
+    """Profiles cropped so that part of the grid looks up beyond their ends: the kernel then
+    tests every lookup (it skips the test only where every lookup is provably inside) and
+    drops those terms, as the NumPy sum does."""
+    frequency, profile = range_spectrum(raw["raw"].values, RADAR, upsample=16)
+    positions = raw["platform_position"].values
+    velocities = raw["platform_velocity"].values
+    centroid = raw["boresight"].values @ np.array([1.0, 0, 0])
+    centre = RADAR.beat_frequency(float(np.linalg.norm(positions[len(positions) // 2]
+                                                       - TARGET)))
+    keep = np.abs(frequency - centre) < 40 * (frequency[1] - frequency[0])  # +-4 cells
+    frequency, profile = frequency[keep], profile[:, keep]
+    u, v = np.meshgrid(np.arange(-0.2, 0.2, 0.01), np.arange(-0.6, 0.6, 0.02))
+    pixels = TARGET + np.stack([u, v, 0 * u], -1).reshape(-1, 3)
+    arguments = (profile, frequency, RADAR, pixels, positions, velocities, centroid, 0.15,
+                 window_coefficients("rect"))
+    reference, reference_total = backproject_numpy(*arguments)
+    grouped, total, info = backproject_tiled(*arguments, row_length=u.shape[1])
+    assert info["exact_pixels"] == 0
+    assert 0 < (reference_total == 0).sum() < len(pixels) - 100  # some grid rows fall off
+    assert _error_db(grouped, reference) <= TOLERANCE_DB
+    np.testing.assert_allclose(total, reference_total, rtol=1e-5, atol=1e-6)
