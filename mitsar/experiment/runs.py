@@ -18,6 +18,7 @@ same bits (:class:`mitsar.io.WorkFolder`, docs/reliability.md §5).
 from __future__ import annotations
 
 import dataclasses
+import json
 import os
 import warnings
 from collections.abc import Callable, Iterator
@@ -538,10 +539,16 @@ def _concatenate(files: list[Path], counts: list[int], order: list[str] | None =
 
 def _empty_scene_message(attrs: Any) -> str:
     """:func:`mitsar.simulate_scene`'s words for an acquisition of exact zeros."""
+    orders = attrs.get("orders", [])
+    if isinstance(orders, str):  # a product read back from a file: its list as JSON text
+        try:
+            orders = json.loads(orders)
+        except ValueError:
+            orders = []
     return (f"{EMPTY_SCENE_WARNING}: nothing of the scene is in the beam "
             f"({attrs.get('scatterer_count')} surface scatterers, "
             f"{attrs.get('point_target_count')} point targets, orders "
-            f"{[int(o) for o in np.atleast_1d(attrs.get('orders', []))]}): check the look "
+            f"{[int(o) for o in np.atleast_1d(orders)]}): check the look "
             "angles, the trajectory, the materials and the orders")
 
 
