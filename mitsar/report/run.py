@@ -253,11 +253,17 @@ def _experiment(run: RunFolder, experiment: Experiment, algorithms: Sequence[str
         run.step("montecarlo", start)
         run.record["tables"].append(_montecarlo_table(summary, realisations,
                                                       experiment.background))
+        files = {algorithm: f"montecarlo/cuts_{algorithm}.png" for algorithm in chosen}
+        missing = [a for a, file in files.items() if not run.stage_done(f"figure {file}",
+                                                                         [file])]
+        # each realisation simulated once and focused by every algorithm still to draw
+        drawn = (montecarlo.realisations_cuts(experiment, missing, min(realisations, 5),
+                                              progress=progress) if missing else {})
         for algorithm in chosen:
-            file = f"montecarlo/cuts_{algorithm}.png"
-            if not run.stage_done(f"figure {file}", [file]):  # ~20 s an algorithm
-                cuts = montecarlo.realisation_cuts(experiment, algorithm, min(realisations, 5))
-                montecarlo.plot_realisation_cuts(cuts, run.out / file, overwrite=True)
+            file = files[algorithm]
+            if algorithm in drawn:
+                montecarlo.plot_realisation_cuts(drawn[algorithm], run.out / file,
+                                                 overwrite=True)
                 if run.work is not None:
                     run.work.mark(f"figure {file}")
             run.record["figures"].append({
