@@ -191,9 +191,9 @@ NEGATIVE_OK = {"start", "velocity", "position", "center", "origin", "axis_u", "a
 
 SCALAR_OK = {"required_resolution"}
 """Array keys that also take one number (the same in range and azimuth)."""
-HUGE_OK = {"slab_width", "spacing"}
-"""Keys where 1e300 is valid: a 2-D slab that wide keeps every scatterer (no restriction); a
-point spacing wider than every surface puts one point on each."""
+HUGE_OK: set[str] = set()
+"""Keys where 1e300 is valid: none since issue 27 (a 2-D slab or a point spacing of 1e300 m
+used to pass; every length [m] is now bounded at 10 km, mitsar.checks.MAX_LENGTH)."""
 FREE_TEXT = {"name", "description"}
 NUMBER_OK = {"islr_extent", "integration_time"}
 """String keys that also take a number > 0 (a number of cells, a time in seconds)."""
@@ -587,6 +587,23 @@ def _api_specs() -> list[tuple[str, Callable[[Any], Any], str, set[str]]]:
     return specs
 
 
+def _unreceived(distance: float | None) -> Any:
+    """The paper's pass with one target ``distance`` metres from mid-track along the line of
+    sight to [15, 8, 0.3] m (None: 1.5 m above the platform, behind the antenna): a target a
+    real receiver cannot receive, which mitsar must name (issue 27)."""
+    import numpy as np  # noqa: PLC0415
+
+    import mitsar  # noqa: PLC0415
+
+    track = mitsar.Trajectory.linear([14.8, 1.4, 4.5], [0.5, 0.0, 0.0], 0.4)
+    middle = np.asarray(track.position(0.2))
+    sight = np.array([15.0, 8.0, 0.3]) - middle
+    target = (middle + [0.0, 0.0, 1.5] if distance is None
+              else middle + distance * sight / np.linalg.norm(sight))
+    return mitsar.simulate_point_targets(mitsar.Radar(), track, mitsar.Look(55.7),
+                                         [mitsar.PointTarget(target)])
+
+
 def _api_cases(rng: random.Random, count: int, fast: bool) -> list[Case]:
     specs = _api_specs()
     extra = [
@@ -599,6 +616,15 @@ def _api_cases(rng: random.Random, count: int, fast: bool) -> list[Case]:
         ("Trajectory vertical", lambda: __import__("mitsar").Trajectory.linear(
             [0, 0, 1], [0, 0, 0.5], 1.0), ("vertical",)),
         ("check_prf(nan)", lambda: __import__("mitsar").Radar().check_prf(math.nan), ("speed",)),
+        # issue 27: echoes that cannot be received are said, naming the target
+        ("simulate_point_targets(target beyond max_range)", lambda: _unreceived(31.5),
+         ("beyond max_range",)),
+        ("simulate_point_targets(target behind the antenna)", lambda: _unreceived(None),
+         ("targets",)),  # warned about by name, then refused: nothing at all is received
+        ("simulate_point_targets(target at the antenna)", lambda: _unreceived(0.05),
+         ("near field",)),
+        ("TraceOptions(slab_width=1e300)", lambda: __import__("mitsar").TraceOptions(
+            slab_width=1e300).resolve("fuzz"), ("slab_width",)),
     ]
     cases = [Case("api", name, True, tokens, (lambda f: lambda folder: f())(func))
              for name, func, tokens in extra]
