@@ -9,7 +9,12 @@ vector (CPHD §4, PVP): ``TxTime = eta_k + T/2`` (mid-sweep), ``RcvTime = TxTime
 delay), ``TxVel = RcvVel``, ``SRPPos`` the scene reference point, ``SC0 = f_c - B/2``,
 ``SCSS = K / f_s``, ``FX1 = SC0``, ``FX2 = SC0 + (N - 1) SCSS``, ``TOA1/TOA2`` the receive
 window ``[0, 2 R_max / c]`` relative to the SRP's delay, ``aFDOP = -2 (dR_srp/dt) / c``,
-``aFRR1 = aFRR2 = 0`` (allowed: "may be set equal to zero"), ``TDTropoSRP = 0`` (indoors).
+``aFRR1 = 2 fx_C / (c K)`` and ``aFRR2 = 2 / (c K)`` (CPHD 1.0.1 §4.3, FX domain: the
+ratio of the TOA offset to the FX offset of a linear FM of rate ``K``, here the chirp rate),
+``TDTropoSRP = 0`` (indoors). ``Channel/Parameters/TOASaved = max(TOA2) - min(TOA1)`` over
+the channel's vectors (CPHD 1.0.1 §5.1; TOA1 drifts with the SRP's range over a long
+collection, so the per-vector width is not enough), ``SceneCoordinates/ImageGrid`` a
+half-cell grid over the ImageArea.
 Positions go to ECF through :class:`mitsar.export.frame.LabOrigin`, recorded in
 ``CollectionID/Parameter`` so :func:`read_cphd` can return to the lab frame. Two added PVPs
 (``AddedPVP``) carry the boresight (ECF) and attitude, and ``CollectionID/Parameter`` the
@@ -50,6 +55,7 @@ from __future__ import annotations
 
 import datetime as _dt
 import json
+import math
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -190,8 +196,9 @@ def _channel_vectors(identifier: str, view: xr.Dataset, history: PhaseHistory,
               "RcvTime": time + delay, "RcvPos": ecf_receive,
               "RcvVel": ecf_receive_velocity, "SRPPos": np.broadcast_to(ecf_srp, (vectors, 3)),
               "aFDOP": -2.0 * ((transmit_rate + receive_rate) / 2.0) / SPEED_OF_LIGHT,
-              "aFRR1": np.zeros(vectors),
-              "aFRR2": np.zeros(vectors), "FX1": np.full(vectors, fx1),
+              "aFRR1": np.full(vectors, (fx1 + fx2) / (SPEED_OF_LIGHT * radar.chirp_rate)),
+              "aFRR2": np.full(vectors, 2.0 / (SPEED_OF_LIGHT * radar.chirp_rate)),
+              "FX1": np.full(vectors, fx1),
               "FX2": np.full(vectors, fx2), "TOA1": toa1, "TOA2": toa2,
               "TDTropoSRP": np.zeros(vectors), "SC0": np.full(vectors, fx1),
               "SCSS": np.full(vectors, history.frequency_step),
@@ -318,6 +325,16 @@ def write_cphd(raw_product: xr.Dataset, path: str | os.PathLike, *,
                       "X2Y2": [half_extent, half_extent]}}
     area = xml["SceneCoordinates"]["ImageArea"]
     area["Polygon"] = np.array(polygon)
+    # ImageGrid (CPHD 1.0.1 §6.2): half-cell sampling of the range resolution c / (2 B) over
+    # the ImageArea, IARP at the grid's centre, so the grid's extent is the ImageArea's.
+    grid_spacing = SPEED_OF_LIGHT / (4.0 * radar.bandwidth)
+    grid_lines = int(math.ceil(2.0 * half_extent / grid_spacing))
+    xml["SceneCoordinates"]["ImageGrid"] = {
+        "Identifier": "mitsar",
+        "IARPLocation": [grid_lines / 2 - 0.5, grid_lines / 2 - 0.5],
+        "IAXExtent": {"LineSpacing": grid_spacing, "FirstLine": 0, "NumLines": grid_lines},
+        "IAYExtent": {"SampleSpacing": grid_spacing, "FirstSample": 0,
+                      "NumSamples": grid_lines}}
     corners = origin.to_ecf([history.srp + np.array([x, y, 0.0]) for x, y in polygon])
     xml["SceneCoordinates"]["ImageAreaCornerPoints"] = (
         require_sarkit("sarkit.wgs84").cartesian_to_geodetic(corners)[:, :2])
@@ -340,7 +357,7 @@ def write_cphd(raw_product: xr.Dataset, path: str | os.PathLike, *,
             "FXFixed": True, "TOAFixed": False, "SRPFixed": True,
             "Polarization": {"TxPol": "V", "RcvPol": "V"},
             "FxC": (fx1 + fx2) / 2, "FxBW": fx2 - fx1,
-            "TOASaved": float((channel.values["TOA2"] - channel.values["TOA1"]).max()),
+            "TOASaved": float(channel.values["TOA2"].max() - channel.values["TOA1"].min()),
             "DwellTimes": {"CODId": "1", "DwellId": "1"}} for channel in channels]}
     pvp = xml["PVP"]
     for name, (offset, size) in layout.items():
