@@ -48,7 +48,7 @@ fi
 stamp="$venv/.mitsar-installed"
 if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ]; then
   "$venv/bin/python" -m pip install -q --upgrade pip
-  "$venv/bin/python" -m pip install -q -e ".[test]"
+  "$venv/bin/python" -m pip install -q -e ".[test,docs]"   # docs: make docs, tests/test_docs_site.py
   touch "$stamp"
 fi
 
