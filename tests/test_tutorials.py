@@ -2,7 +2,7 @@
 
 Each runs as a script in a subprocess on reduced sizes (``MITSAR_TUTORIAL_QUICK=1``), with a
 timeout; a tutorial ends with assertions on what it showed, so a wrong result fails too.
-Measured on 2 shared cores: 8-15 s each, under a minute and a half for all.
+Measured on 2 shared cores: 3-16 s each, about 40 s for the six.
 """
 
 from __future__ import annotations

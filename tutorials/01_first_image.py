@@ -50,7 +50,6 @@ print(f"range resolution {radar.range_resolution:.3f} m, "
 raw = mitsar.simulate_point_targets(radar, trajectory, look, [target], background, seed=1)
 print(dict(raw.sizes))
 ax = plot_range_compressed(raw)
-ax.set_xlim(6, 10)
 
 # %% [markdown]
 # The range-compressed data (an FFT of each sweep) shows the target's range history near 8 m.

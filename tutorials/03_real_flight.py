@@ -92,7 +92,7 @@ navigation_plots.plot_phase(raw, target, estimates)
 # this flight (on the reduced sizes of `MITSAR_TUTORIAL_QUICK=1` the short aperture leaves
 # minimum entropy little to work with). The script
 # `examples/real_flight.py` adds the oracle correction and the ray-traced room; its figures are
-# in the [gallery](../gallery.md). Next: [a campaign](05_campaign.md).
+# in the [gallery](../gallery.md). Next: [materials and multipath](04_materials_multipath.md).
 
 # %%
 assert results["pga"]["peak_db"] > results["no autofocus"]["peak_db"]
