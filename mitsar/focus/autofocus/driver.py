@@ -11,13 +11,14 @@ image is that BP sum, e.g. BPA or a fast factorised BP), corrects the raw sweeps
 from __future__ import annotations
 
 import time
+import warnings
 from collections.abc import Callable
 from dataclasses import fields
 
 import numpy as np
 import xarray as xr
 
-from mitsar.errors import ParameterError
+from mitsar.errors import MitsarWarning, ParameterError
 from mitsar.focus.autofocus.apply import attach_phase, correct_raw
 from mitsar.focus.autofocus.contributions import (
     PulseSettings,
@@ -82,7 +83,15 @@ def run_autofocus(raw: xr.Dataset, image: xr.Dataset,
         The refocused image with ``autofocus_phase`` (sweep) [rad] and attributes
         ``autofocus_method``, ``autofocus_iterations``, ``autofocus_converged`` (PGA),
         ``autofocus_entropy_before`` / ``autofocus_entropy_after`` (of the whole image,
-        nats), ``autofocus_scatterers``, ``autofocus_seconds`` and the method's options.
+        nats), ``autofocus_scatterers``, ``autofocus_seconds``, ``autofocus_applied`` (0 when
+        the correction made the image worse and ``fallback`` returned the uncorrected one),
+        ``autofocus_warning`` (the warning's text, empty if none) and the method's options.
+
+    Warns
+    -----
+    MitsarWarning
+        When the method did not converge or the correction raised the image's entropy
+        (:func:`warning_text`: what happened, what was returned, what to try).
     """
     record = make_options(method, options)
     start = time.perf_counter()
@@ -105,15 +114,66 @@ def run_autofocus(raw: xr.Dataset, image: xr.Dataset,
             used = info.pop("scatterers")
         else:
             lines = azimuth_lines(data, positions[chosen], oversample=record.oversample,
+                                  line_cells=record.line_cells,
                                   max_elements=record.max_elements)
             used = lines.history.shape[1]
             terms = (lines.kernel * lines.history[:, :, None]).reshape(len(lines.history), -1)
             phase, info = estimate_entropy(terms, record)
     corrected = refocus(correct_raw(raw, phase))
+    before, after = image_entropy(values), image_entropy(corrected["image"].values)
     attrs = {"method": method, **info, "scatterers": int(used),
-             "entropy_before": image_entropy(values),
-             "entropy_after": image_entropy(corrected["image"].values),
+             "entropy_before": before, "entropy_after": after,
              "seconds": time.perf_counter() - start,
              "options": {f.name: getattr(record, f.name) for f in fields(record)}}
-    return attach_phase(corrected, raw, phase, attrs)
+    problems = assess(method, record, info, before, after)
+    applied = not (problems["degraded"] and record.fallback)
+    message = warning_text(method, record, info, before, after, problems, applied)
+    attrs.update(applied=applied, converged=bool(info.get("converged", True)),
+                 warning=message or "")
+    if message:
+        warnings.warn(message, MitsarWarning, stacklevel=3)
+    return attach_phase(corrected if applied else image, raw, phase, attrs)
 
+
+DEGRADED_NATS = 1e-3
+"""Entropy rise of the whole image [nats] above which a correction counts as degrading it."""
+
+
+def assess(method: str, record: PGAOptions | EntropyOptions, info: dict, before: float,
+           after: float) -> dict[str, bool]:
+    """What went wrong: ``not_converged`` (PGA: the last update above the tolerance; entropy:
+    L-BFGS stopped at its iteration limit or the model entropy rose) and ``degraded`` (the
+    whole image's entropy rose by more than :data:`DEGRADED_NATS`)."""
+    return {"not_converged": not bool(info.get("converged", True)),
+            "degraded": after > before + DEGRADED_NATS}
+
+
+def warning_text(method: str, record: PGAOptions | EntropyOptions, info: dict, before: float,
+                 after: float, problems: dict[str, bool], applied: bool) -> str | None:
+    """The :class:`~mitsar.errors.MitsarWarning` of an autofocus that did not converge or
+    degraded the image (None when neither): what happened, what was returned, what to try."""
+    if not (problems["not_converged"] or problems["degraded"]):
+        return None
+    parts = []
+    if problems["not_converged"] and method == "pga":
+        parts.append(f"did not converge: the last update was {info['last_update_rms']:.3g} rad "
+                     f"rms after {info['iterations']} iterations (tolerance "
+                     f"{record.tolerance:g} rad); the estimate of iteration "
+                     f"{info.get('kept_iteration', info['iterations'])} (sharpest line images, "
+                     f"entropy {info.get('line_entropy_initial', float('nan')):.3f} -> "
+                     f"{info.get('line_entropy_final', float('nan')):.3f} nats) was used")
+    elif problems["not_converged"]:
+        parts.append(f"did not converge: L-BFGS used {info['iterations']} iterations over "
+                     f"{len(info['stages'])} stages and the model entropy went "
+                     f"{info['entropy_initial']:.3f} -> {info['entropy_final']:.3f} nats")
+    if problems["degraded"]:
+        parts.append(f"made the image worse (entropy {before:.3f} -> {after:.3f} nats)")
+    returned = ("the corrected image is returned (check it: its scatterers may be shifted or "
+                "defocused)" if applied else "the uncorrected image is returned "
+                "(autofocus_applied = 0; autofocus_phase holds the rejected estimate)")
+    advice = ("try autofocus='entropy', more 'iterations', or fewer and brighter "
+              "'scatterers' (a smaller 'dynamic_range_db') in autofocus_options"
+              if method == "pga" else
+              "try autofocus='pga', more 'iterations', a coarser 'finest' (sweeps per "
+              "phase) or fewer 'scatterers' in autofocus_options")
+    return f"autofocus {method!r} " + "; it ".join(parts) + "; " + returned + "; " + advice

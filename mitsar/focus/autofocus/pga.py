@@ -38,7 +38,7 @@ from scipy import ndimage
 from mitsar.errors import ParameterError
 from mitsar.focus.autofocus.contributions import PulseData
 from mitsar.focus.autofocus.lines import azimuth_lines
-from mitsar.focus.autofocus.phase import integrate_gradient, remove_linear_phase
+from mitsar.focus.autofocus.phase import integrate_gradient, remove_linear_phase, wrap
 
 __all__ = ["PGAOptions", "estimate_pga", "select_scatterers"]
 
@@ -74,6 +74,9 @@ class PGAOptions:
         Sweeps a scatterer's phase history is taken over: all sweeps whose beam holds it
         (default; estimates the phase wherever a scatterer is seen) or only the focuser's
         processed aperture.
+    fallback : bool
+        Return the uncorrected image (with a warning) when the correction raises the whole
+        image's entropy (default True); False returns the corrected one (with a warning).
     max_elements : int
         Bound on sweeps x lines x line points held at once (16 bytes each; default 2^23): the
         faintest scatterers are dropped beyond it.
@@ -90,6 +93,7 @@ class PGAOptions:
     tolerance: float = 0.02
     aperture: str = "beam"
     max_elements: int = 1 << 23
+    fallback: bool = True
 
     def __post_init__(self) -> None:
         checks = {"scatterers": self.scatterers >= 1,
@@ -114,6 +118,12 @@ _EXPECTED = {"scatterers": "an integer >= 1", "dynamic_range_db": "a level > 0 d
              "shrink": "a factor in (0, 1]", "min_window_cells": "a number of cells > 0",
              "tolerance": "a phase >= 0 rad", "aperture": "'beam' or 'processed'",
              "max_elements": "an integer >= 1"}
+
+
+def _entropy(power: NDArray) -> float:
+    """Entropy ``-sum p ln p`` of the normalised intensity of all line images [nats]."""
+    share = power.ravel() / max(float(power.sum()), 1e-300)
+    return float(-np.sum(share * np.log(share + 1e-300)))
 
 
 def select_scatterers(magnitude: NDArray, count: int, dynamic_range_db: float,
@@ -149,9 +159,11 @@ def estimate_pga(data: PulseData, points: NDArray, options: PGAOptions
         Estimated phase error per sweep [rad], constant and linear trend removed; the raw
         sweeps are corrected by ``exp(-j phase)``.
     info : dict
-        ``iterations`` (run), ``converged`` (bool), ``last_update_rms`` [rad],
-        ``window_cells`` (half width of the last window), ``covered_sweeps``, ``scatterers``
-        (lines used).
+        ``iterations`` (run), ``converged`` (bool), ``last_update_rms`` [rad, of the wrapped
+        update], ``window_cells`` (half width of the last window), ``kept_iteration`` (the
+        iterate returned: the one of sharpest line images, 0 = no correction),
+        ``line_entropy_initial`` / ``line_entropy_final`` (of the line images before and with
+        the returned estimate, nats), ``covered_sweeps``, ``scatterers`` (lines used).
     """
     lines = azimuth_lines(data, points, aperture=options.aperture,
                           oversample=options.oversample, line_cells=options.line_cells,
@@ -164,10 +176,19 @@ def estimate_pga(data: PulseData, points: NDArray, options: PGAOptions
     minimum = options.min_window_cells * options.oversample
     info = {"iterations": 0, "converged": False, "last_update_rms": float("nan")}
     rows = np.arange(count)
+    # The estimate kept is the iterate whose line images are sharpest (lowest entropy, the
+    # model image of the entropy method), the uncorrected one included: on clutter the
+    # windowed projection is not exact (the lines are not unitary on a curved or jittered
+    # track) and later iterations can undo a good first one.
+    best = (np.inf, total.copy(), 0)
+    line_entropy = []
     for iteration in range(options.iterations):
         corrected = history * np.exp(-1j * total)[:, None]
         image = np.einsum("kpq,kp->pq", shift, corrected)  # line images I_p(q)
         power = np.abs(image) ** 2
+        line_entropy.append(_entropy(power))
+        if line_entropy[-1] < best[0]:
+            best = (line_entropy[-1], total.copy(), iteration)
         centre = np.argmax(power, axis=1)
         index = np.arange(length)[None, :]
         distance = (index - centre[:, None]) % length  # circular: the line is one period
@@ -179,7 +200,7 @@ def estimate_pga(data: PulseData, points: NDArray, options: PGAOptions
         gradient = np.where(np.abs(product) > 0, np.angle(product), 0.0)
         update = remove_linear_phase(integrate_gradient(gradient), coverage)
         total = remove_linear_phase(total + update, coverage)
-        rms = float(np.sqrt(np.average(update**2, weights=coverage)))
+        rms = float(np.sqrt(np.average(wrap(update) ** 2, weights=coverage)))
         info.update(iterations=iteration + 1, last_update_rms=rms,
                     window_cells=half_window / options.oversample)
         # Next window: shrink, but keep twice the -10 dB width of the centred summed intensity.
@@ -191,5 +212,12 @@ def estimate_pga(data: PulseData, points: NDArray, options: PGAOptions
         if rms < options.tolerance:
             info["converged"] = True
             break
+    final = _entropy(np.abs(lines.images(total)) ** 2)
+    line_entropy.append(final)
+    if final < best[0]:
+        best = (final, total, info["iterations"])
+    total = best[1]
+    info.update(kept_iteration=int(best[2]), line_entropy_initial=float(line_entropy[0]),
+                line_entropy_final=float(best[0]))
     info.update(covered_sweeps=int(coverage.sum()), scatterers=int(count))
     return total, info
