@@ -8,20 +8,31 @@ What is written (the mapping; details in docs/products.md)
   other; rows run away from the radar and columns so that ``uRow x uCol`` points up
   (SICD's "shadows down", normal away from the Earth), which for mitsar's left-looking slant
   grid reverses the along-track axis. :func:`sicd_pixels` returns exactly the written array.
-* Grid (``Type = PLANE``; every mitsar 2-D grid is a uniform planar grid): ``UVectECF`` from
-  the pixel positions, ``SS`` the pixel spacing, ``ImpRespBW = 1 / rho`` from the image's
-  ``range_resolution`` / ``azimuth_resolution`` (one cell ``c/2B`` and ``rho``),
+* Grid (``Type = PLANE``; every mitsar 2-D grid is a uniform planar grid; NGA.STND.0024-1
+  Vol. 1 §4.2): ``UVectECF`` from the pixel positions, ``SS`` the pixel spacing,
+  ``ImpRespBW = 1 / rho`` from the image's ``range_resolution`` / ``azimuth_resolution``,
   ``ImpRespWid`` the -3 dB width of the window's response (0.8859 rho for "rect", SICD's
-  KAPFAC), ``Sgn = -1`` and ``KCtr = (2 f_c / c) (l . u)`` with ``l`` the line of sight at the
-  centre of aperture: back-projection leaves the carrier ``exp(-j 2 pi (2 f_c / c) l . x)`` in
-  the pixels (docs/conventions.md, BPA de-rotation), which is SICD's spatial-frequency model
-  with ``Sgn = -1`` and that ``KCtr``. ``DeltaK1/2 = -+ ImpRespBW / 2``.
+  KAPFAC), ``WgtType`` the window the focuser applied (attributes ``range_window``, ``window``).
+  Back-projection leaves the carrier ``exp(-j 2 pi k l . x)``, ``k = 2 f_c / c``, in the pixels
+  (docs/conventions.md, BPA de-rotation): their spectrum, taken with the DFT exponent
+  ``+j`` (``Sgn = +1``), sits at the spatial frequency ``k l(COA) . u`` of each pixel's own
+  line of sight at its centre of aperture, seen modulo ``1 / SS``. ``KCtr`` is the multiple of
+  ``1 / SS`` nearest that frequency at the SCP, ``DeltaKCOAPoly`` the rest, a polynomial over
+  the image (order <= 2 in metres from the SCP), and ``DeltaK1/2`` its extremes at the corners
+  -+ ``ImpRespBW / 2`` (the whole ``+-1/(2 SS)`` when that wraps, as Vol. 1 allows).
+* Centre of aperture (Vol. 1 §4.3): each pixel's COA is its beam-centre crossing
+  (:func:`centre_of_aperture`, the focusers' mean-track aspect frame), so a stripmap image has
+  a ``TimeCOAPoly`` that varies along the track (-2 s/m at 0.5 m/s); fitted on a 9 x 9 sample
+  of pixels and exact at the SCP. ``SCPCOA`` (sarkit's ``compute_scp_coa``) is therefore the
+  geometry at the SCP's own COA.
+* ``ImageCorners``: the corner pixels projected into the ground plane through the SCP along
+  the slant-plane normal at the SCP's COA (Vol. 1 §2.6), as sarkit's checker predicts them.
 * ImageFormation: ``ImageFormAlgo`` "RMA" for RDA/WDA/FSA, "OTHER" for BPA/FFBP (attribute
   ``algorithm``), processed band and time from the raw product.
 * Geometry: ``Position/ARPPoly`` a polynomial fit (order <= 5) of the mid-sweep antenna
-  positions against time, ``GeoData/SCP`` the centre pixel, corner points, ``SCPCOA`` computed
-  by sarkit (``compute_scp_coa``), all in ECF through :class:`mitsar.export.frame.LabOrigin`,
-  recorded with the radar parameters in ``CollectionInfo/Parameter``.
+  positions against time, ``GeoData/SCP`` the centre pixel, all in ECF through
+  :class:`mitsar.export.frame.LabOrigin`, recorded with the radar parameters in
+  ``CollectionInfo/Parameter``.
 """
 
 from __future__ import annotations
@@ -37,12 +48,14 @@ import xarray as xr
 from mitsar.errors import ParameterError
 from mitsar.export.frame import DEFAULT_ORIGIN, LabOrigin
 from mitsar.export.optional import require_sarkit
+from mitsar.focus.aperture import mean_track_frame
 from mitsar.focus.windows import evaluate_window, window_coefficients
 from mitsar.io import atomic_writer
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
 from mitsar.version import __version__
 
-__all__ = ["SICD_NAMESPACE", "impulse_width_factor", "sicd_layout", "sicd_pixels", "write_sicd"]
+__all__ = ["SICD_NAMESPACE", "centre_of_aperture", "impulse_width_factor", "sicd_layout",
+           "sicd_pixels", "write_sicd"]
 
 SICD_NAMESPACE = "urn:SICD:1.4.0"
 """XML namespace of SICD 1.4.0."""
@@ -139,6 +152,89 @@ def _oriented(array: np.ndarray, layout: dict) -> np.ndarray:
     return array
 
 
+def centre_of_aperture(points: np.ndarray, time: np.ndarray, positions: np.ndarray,
+                       velocities: np.ndarray, boresight: np.ndarray) -> np.ndarray:
+    """Geometric centre-of-aperture time [s] of lab points: the beam-centre crossing.
+
+    The crossing is where the line of sight ``l = (x - p_k) / |x - p_k|`` has the Doppler
+    centroid's direction sine, ``v_hat_k . l = v_hat_k . b_k`` (b the boresight), in the mean
+    track's frame (:func:`mitsar.focus.aperture.mean_track_frame`: a wander of the velocity
+    moves no line of sight): the sweep the processed band is centred on
+    (:mod:`mitsar.focus.aperture`, "doppler" and "pixel" band selection);
+    among several crossings the one nearest the track; linear between the two sweeps around
+    it, extrapolated from the track's first or last two sweeps for points whose crossing lies
+    beyond the track (the edge pixels of a stripmap image, which see part of their band).
+    This is SICD's COA (NGA.STND.0024-1 Vol. 1 §2.4 and §4.3, ``TimeCOAPoly``) for a
+    stripmap image, each pixel at its own broadside.
+
+    Parameters
+    ----------
+    points : ndarray, shape (P, 3)
+        Lab positions [m].
+    time : ndarray, shape (S,)
+        Sweep times [s] (mid-sweep).
+    positions, velocities, boresight : ndarray, shape (S, 3)
+        Antenna positions [m], velocities [m/s], boresight unit vectors.
+
+    Returns
+    -------
+    ndarray, shape (P,)
+        COA times [s].
+    """
+    speed = np.linalg.norm(velocities, axis=1, keepdims=True)
+    unit = velocities / np.where(speed > 0, speed, 1.0)
+    centroid = np.einsum("si,si->s", boresight, unit)
+    if len(time) > 1:  # the mean track's frame, as the focusers' aspect window
+        mean_velocity, centroid = mean_track_frame(positions, velocities, centroid,
+                                                   sweep_interval=float(np.median(np.diff(time))))
+        mean_speed = np.linalg.norm(mean_velocity, axis=1, keepdims=True)
+        unit = mean_velocity / np.where(mean_speed > 0, mean_speed, 1.0)
+    sight = points[None, :, :] - positions[:, None, :]
+    distance = np.linalg.norm(sight, axis=2)
+    offset = np.einsum("spi,si->sp", sight, unit) / distance - centroid[:, None]
+    result = np.empty(len(points))
+    for index in range(len(points)):
+        o = offset[:, index]
+        crosses = np.flatnonzero((o[:-1] * o[1:] <= 0) & (o[:-1] != o[1:]))
+        if len(crosses):
+            k = crosses[np.argmin(distance[crosses, index])]
+            fraction = o[k] / (o[k] - o[k + 1])
+            result[index] = time[k] + fraction * (time[k + 1] - time[k])
+        elif len(o) > 1:  # beyond the track's ends: the crossing extrapolated linearly
+            k = 0 if abs(o[0]) <= abs(o[-1]) else len(o) - 2
+            step = o[k] - o[k + 1]
+            fraction = o[k] / step if step != 0 else 0.0
+            result[index] = time[k] + fraction * (time[k + 1] - time[k])
+        else:
+            result[index] = time[0]
+    return result
+
+
+def _track_at(when: np.ndarray, time: np.ndarray, positions: np.ndarray,
+              velocities: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Antenna position [m] and velocity [m/s] at times ``when`` [s]: linear between sweeps,
+    along the end sweeps' velocity beyond the track (a polynomial would smooth a wander)."""
+    position = np.stack([np.interp(when, time, positions[:, a]) for a in range(3)], 1)
+    velocity = np.stack([np.interp(when, time, velocities[:, a]) for a in range(3)], 1)
+    before, after = when < time[0], when > time[-1]
+    position[before] = positions[0] + (when[before] - time[0])[:, None] * velocities[0]
+    position[after] = positions[-1] + (when[after] - time[-1])[:, None] * velocities[-1]
+    return position, velocity
+
+
+def _fit_poly2d(x: np.ndarray, y: np.ndarray, values: np.ndarray, order: int) -> np.ndarray:
+    """Least-squares 2-D polynomial ``c[i, j] x^i y^j`` (i + j <= order) [value units]."""
+    terms = [(i, j) for i in range(order + 1) for j in range(order + 1 - i)]
+    scale_x = max(float(np.abs(x).max()), 1e-12)
+    scale_y = max(float(np.abs(y).max()), 1e-12)
+    design = np.column_stack([(x / scale_x) ** i * (y / scale_y) ** j for i, j in terms])
+    solution = np.linalg.lstsq(design, values, rcond=None)[0]
+    coefficients = np.zeros((order + 1, order + 1))
+    for (i, j), value in zip(terms, solution, strict=True):
+        coefficients[i, j] = value / scale_x ** i / scale_y ** j
+    return coefficients
+
+
 def write_sicd(image_product: xr.Dataset, path: str | os.PathLike, *,
                raw: xr.Dataset | None = None, origin: LabOrigin = DEFAULT_ORIGIN,
                overwrite: bool = False) -> Path:
@@ -194,20 +290,55 @@ def write_sicd(image_product: xr.Dataset, path: str | os.PathLike, *,
     scp = origin.to_ecf(scp_lab)
     order = int(min(5, len(time) - 1))
     arp_poly = np.polynomial.polynomial.polyfit(time, origin.to_ecf(arp_lab), order)
-    sight = scp_lab - arp_lab[mid]
-    sight /= np.linalg.norm(sight)
+    velocity_lab = np.asarray(raw["platform_velocity"].values, float)
+    boresight = np.asarray(raw["boresight"].values, float)
     wavenumber = 2.0 * radar.carrier_frequency / SPEED_OF_LIGHT
     window = str(image.attrs.get("window", "rect"))
     range_window = str(image.attrs.get("range_window", window))
     algorithm = str(image.attrs.get("algorithm", "bpa"))
 
+    # Centre of aperture over the image (Vol. 1 §2.4): sampled on a coarse grid of pixels,
+    # fitted as TimeCOAPoly(xrow, ycol) [s] with xrow, ycol [m] from the SCP.
+    samples = [np.unique(np.linspace(0, n - 1, min(n, 9)).round().astype(int))
+               for n in (rows, cols)]
+    sample_rows, sample_cols = np.meshgrid(*samples, indexing="ij")
+    sample_points = position[sample_rows, sample_cols].reshape(-1, 3)
+    xrow = ((sample_rows - scp_index[0]) * layout["row_spacing"]).ravel()
+    ycol = ((sample_cols - scp_index[1]) * layout["col_spacing"]).ravel()
+    coa = centre_of_aperture(sample_points, time, arp_lab, velocity_lab, boresight)
+    poly_order = int(min(2, len(samples[0]) - 1, len(samples[1]) - 1))
+    time_coa_poly = _fit_poly2d(xrow, ycol, coa, poly_order)
+    scp_coa = float(centre_of_aperture(scp_lab[None], time, arp_lab, velocity_lab,
+                                       boresight)[0])
+    time_coa_poly[0, 0] += scp_coa - float(time_coa_poly[0, 0])  # exact at the SCP
+    arp_at_coa, _ = _track_at(coa, time, arp_lab, velocity_lab)
+    sight = sample_points - arp_at_coa
+    sight /= np.linalg.norm(sight, axis=1, keepdims=True)
+    corner_rows = np.array([0, 0, rows - 1, rows - 1]) - scp_index[0]
+    corner_cols = np.array([0, cols - 1, cols - 1, 0]) - scp_index[1]
+
     def grid_dim(u: np.ndarray, spacing: float, resolution: float, weighting: str) -> dict:
+        # mitsar's pixels hold exp(-j 2 pi k l.x) (back-projection leaves the carrier,
+        # docs/conventions.md): Sgn = +1, the support at k = (2 f_c / c) l(COA) . u, seen in
+        # the pixels modulo 1/SS; KCtr the multiple of 1/SS nearest k at the SCP and
+        # DeltaKCOAPoly = k - KCtr over the image (Vol. 1 §4.2, Grid).
         bandwidth = 1.0 / resolution
-        half = min(bandwidth / 2, 0.5 / spacing)
+        nyquist = 0.5 / spacing
+        spatial = wavenumber * (sight @ u)
+        k_scp = float(_fit_poly2d(xrow, ycol, spatial, poly_order)[0, 0])
+        k_ctr = round(k_scp * spacing) / spacing
+        delta_poly = _fit_poly2d(xrow, ycol, spatial - k_ctr, poly_order)
+        corners = np.polynomial.polynomial.polyval2d(
+            corner_rows * layout["row_spacing"], corner_cols * layout["col_spacing"],
+            delta_poly)
+        low = float(corners.min()) - bandwidth / 2
+        high = float(corners.max()) + bandwidth / 2
+        if low < -nyquist or high > nyquist:
+            low, high = -nyquist, nyquist
         return {"UVectECF": origin.vectors_to_ecf(u), "SS": spacing,
-                "ImpRespWid": impulse_width_factor(weighting) / bandwidth, "Sgn": -1,
-                "ImpRespBW": bandwidth, "KCtr": wavenumber * float(sight @ u),
-                "DeltaK1": -half, "DeltaK2": half,
+                "ImpRespWid": impulse_width_factor(weighting) / bandwidth, "Sgn": 1,
+                "ImpRespBW": bandwidth, "KCtr": k_ctr, "DeltaK1": low, "DeltaK2": high,
+                "DeltaKCOAPoly": delta_poly,
                 "WgtType": {"WindowName": WINDOW_NAMES.get(weighting, weighting.upper())}}
 
     row_is_range = layout["row_dim"] == image["image"].dims[
@@ -221,7 +352,20 @@ def write_sicd(image_product: xr.Dataset, path: str | os.PathLike, *,
              else "GROUND" if abs(normal[2]) > 0.999 else "OTHER")
     low = radar.carrier_frequency - radar.bandwidth / 2
     high = radar.carrier_frequency + radar.bandwidth / 2
-    corners_lab = [position[0, 0], position[0, -1], position[-1, -1], position[-1, 0]]
+    # ImageCorners (Vol. 1 §2.6, GeoData): the corner pixels projected into the ground plane
+    # through the SCP along the slant-plane normal at the SCP's centre of aperture
+    arp_scp, velocity_scp = (v[0] for v in _track_at(np.array([scp_coa]), time, arp_lab,
+                                                      velocity_lab))
+    normal_slant = np.cross(arp_scp - scp_lab, velocity_scp)
+    normal_slant /= np.linalg.norm(normal_slant)
+    up = np.array([0.0, 0.0, 1.0])
+    if normal_slant @ up < 0:
+        normal_slant = -normal_slant
+    ground = [u - (u @ up) * normal_slant / (normal_slant @ up)
+              for u in (layout["u_row"], layout["u_col"])]
+    corners_lab = [scp_lab + ground[0] * r * layout["row_spacing"]
+                   + ground[1] * c * layout["col_spacing"]
+                   for r, c in zip(corner_rows, corner_cols, strict=True)]
     corners = wgs84.cartesian_to_geodetic(origin.to_ecf(np.array(corners_lab)))[:, :2]
 
     ns = SICD_NAMESPACE
@@ -241,7 +385,7 @@ def write_sicd(image_product: xr.Dataset, path: str | os.PathLike, *,
                       "SCP": {"ECF": scp, "LLH": wgs84.cartesian_to_geodetic(scp)},
                       "ImageCorners": corners}
     xml["Grid"] = {
-        "ImagePlane": plane, "Type": "PLANE", "TimeCOAPoly": [[float(time[mid])]],
+        "ImagePlane": plane, "Type": "PLANE", "TimeCOAPoly": time_coa_poly,
         "Row": grid_dim(layout["u_row"], layout["row_spacing"], row_resolution,
                         range_window if row_is_range else window),
         "Col": grid_dim(layout["u_col"], layout["col_spacing"], col_resolution,
