@@ -244,6 +244,8 @@ def _focus_and_measure(run: RunFolder, experiment: Experiment, result: PipelineR
         run.product(image, file)
         image = (run.finished(stage, [file], [f"focus {algorithm}"]) or [image])[0]
     result.images[algorithm] = image
+    if image.attrs.get("autofocus_warning"):  # a failed or degrading autofocus, in the report
+        run.warn(f"{algorithm}: {image.attrs['autofocus_warning']}")
     figure, ax = plt.subplots(figsize=(7, 6), layout="constrained")
     marks = (beam_range_marks(image) if scene is None
              else scene_range_marks(image, result.raw, scene))
