@@ -1,10 +1,11 @@
 """Minimal reproducer of a Dr.Jit 1.5.0 LLVM-backend crash (docs/reliability.md §5). Not a test.
 
 A kernel ``sin(x) + 1`` over a Float64 array made from NumPy, evaluated and read back through
-``np.asarray`` 20 times in a row (without the read-back it does not crash), crashes the process (SIGSEGV inside a later ``dr.eval``; in most runs, not all) when the width is ``2^22 - d`` for
-``3 <= d <= 14`` (also ``2^20 - 4`` and ``2^23 - 4``, one or two threads alike), and runs at
-``2^22``, ``2^22 - 1``, ``2^22 - 2`` and ``2^22 - d`` for ``d >= 16``. Measured on this 2-core
-x86-64 machine with drjit 1.5.0 / mitsuba 3.9.1 (no newer release on PyPI).
+``np.asarray`` 20 times in a row (without the read-back it does not crash), crashes the process
+(SIGSEGV inside a later ``dr.eval``; in most runs, not all) when the width is ``2^22 - d`` for ``3
+<= d <= 14`` (also ``2^20 - 4`` and ``2^23 - 4``, one or two threads alike), and runs at ``2^22``,
+``2^22 - 1``, ``2^22 - 2`` and ``2^22 - d`` for ``d >= 16``. Measured on this 2-core x86-64 machine
+with drjit 1.5.0 / mitsuba 3.9.1 (no newer release on PyPI).
 
 Run: ``python scripts/drjit_width_crash.py [WIDTH]`` (default 2^22 - 4); each width in a fresh
 process: ``for d in 1 2 3 4 14 16; do python scripts/drjit_width_crash.py $((4194304 - d)); done``.

@@ -422,13 +422,14 @@ def test_distributed_target_coherence_is_the_thermal_decorrelation():
 
 @pytest.mark.slow
 def test_navigation_errors_cost_little_height_and_one_autofocus_serves_all_channels():
-    """Echoes from the true track, focused on a navigation track with a 0.5 mm/sqrt(s) random
-    walk and 0.3 mm Gauss-Markov noise per axis (seeded): the image defocuses (peak -2.4 dB below the error-free one),
-    but the error is the platform's, common to both phase centres, so the interferometric
-    height moves by well under a millimetre (measured 0.6 mm; 3 mm asked for heights). PGA on
-    channel 0, its phase applied to every channel, restores the peak (within 0.3 dB of the
-    error-free image; measured 0.09 dB; minimum entropy: 0.58 dB) without biasing the height. What the motion errors cost
-    in height here: 0.6 mm, from the recorded track's geometric error, not from the phase."""
+    """Echoes from the true track, focused on a navigation track with a 0.5 mm/sqrt(s) random walk
+    and 0.3 mm Gauss-Markov noise per axis (seeded): the image defocuses (peak -2.4 dB below the
+    error-free one), but the error is the platform's, common to both phase centres, so the
+    interferometric height moves by well under a millimetre (measured 0.6 mm; 3 mm asked for
+    heights). PGA on channel 0, its phase applied to every channel, restores the peak (within 0.3
+    dB of the error-free image; measured 0.09 dB; minimum entropy: 0.58 dB) without biasing the
+    height. What the motion errors cost in height here: 0.6 mm, from the recorded track's geometric
+    error, not from the phase."""
     radar = mitsar.Radar(receivers=[(0, 0, 0), (0, 0, BASELINE)])
     target = np.array([15.0, 8.0, 0.15])
     track = mitsar.Trajectory.linear([14.0, 1.4, 4.5], [0.5, 0.0, 0.0], 3.2)

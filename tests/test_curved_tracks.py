@@ -85,10 +85,10 @@ def test_curved_track_focuses_to_the_rect_irw(shape, radius, side):
 @pytest.mark.parametrize("side", [+1, -1], ids=["u-turn-left", "u-turn-right"])
 def test_ffbp_focuses_a_u_turn_as_exact_bpa(side):
     """FFBP on a lawn-mower U-turn (radius 2 m), the whole beam (narrower bands on turns:
-    tests/test_ffbp_turns.py, docs/focusing.md § FFBP): its azimuth cut through the point against exact BPA's on
-    the same 1 mm points. Measured: IRW within 0.2 % (17.9 and 33.4 mm: the beam holds the
-    point over 9.6 deg of aspect turning one way, 5.1 deg the other), the cut within -41 dB;
-    1 % and -35 dB are the bounds (the issue's FFBP error bound)."""
+    tests/test_ffbp_turns.py, docs/focusing.md § FFBP): its azimuth cut through the point against
+    exact BPA's on the same 1 mm points. Measured: IRW within 0.2 % (17.9 and 33.4 mm: the beam
+    holds the point over 9.6 deg of aspect turning one way, 5.1 deg the other), the cut within -41
+    dB; 1 % and -35 dB are the bounds (the issue's FFBP error bound)."""
     raw, target, along = _broadside_point(*_u_turn(2.0, side))
     offsets = np.arange(-0.06, 0.06 + 1e-9, 0.001)
     grid = PointsGrid(target + offsets[:, None] * along)
