@@ -652,6 +652,19 @@ def file_digest(path: str | os.PathLike) -> str | None:
         return None
 
 
+def scene_digest(source: str | os.PathLike, scene: Any) -> str | None:
+    """The content hash of the scene file a configuration file names (a path absolute or
+    relative to the configuration's folder; a canned scene: its name; no scene: None), for
+    the inputs of a resumable command (:class:`WorkFolder`)."""
+    if not isinstance(scene, str):
+        return None
+    for candidate in (Path(scene), Path(source).parent / scene):
+        digest = file_digest(candidate)
+        if digest:
+            return digest
+    return scene
+
+
 class WorkFolder:
     """The progress of a resumable command, kept beside its destination (context manager).
 

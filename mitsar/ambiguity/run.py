@@ -21,9 +21,9 @@ from mitsar.io import (
     WorkFolder,
     atomic_output,
     check_writable,
-    file_digest,
     load,
     save,
+    scene_digest,
     write_json,
 )
 from mitsar.scene.loading import load_scene
@@ -144,7 +144,7 @@ def run_ambiguity_experiment(path: str | os.PathLike, out_dir: str | os.PathLike
         check_writable(out_dir / SUMMARY, overwrite)
     make_figures = spec["outputs"]["figures"] if figures is None else figures
     inputs = {"command": "ambiguity", "config": spec["config"], "figures": bool(make_figures),
-              "scene": _scene_digest(Path(path), spec["scene"])}
+              "scene": scene_digest(path, spec["scene"])}
     with WorkFolder(out_dir, inputs, command="ambiguity", log=log) as work:
         folder = work.file("out")
         folder.mkdir(exist_ok=True)
@@ -156,17 +156,6 @@ def run_ambiguity_experiment(path: str | os.PathLike, out_dir: str | os.PathLike
 
 SUMMARY = "summary.json"
 """The summary of an ambiguity run, written last."""
-
-
-def _scene_digest(path: Path, scene: Any) -> str | None:
-    """The content hash of the ambiguity file's scene file (a canned scene: its name)."""
-    if not isinstance(scene, str):
-        return None
-    for candidate in (Path(scene), path.parent / scene):
-        digest = file_digest(candidate)
-        if digest:
-            return digest
-    return scene
 
 
 def _write_ambiguity(spec: dict[str, Any], work: WorkFolder, folder: Path, out_dir: Path,

@@ -77,7 +77,7 @@ from mitsar.experiment.runs import (
     simulate_passes,
 )
 from mitsar.features.scores import scores_dataset
-from mitsar.io import ProductFileError, WorkFolder, check_writable, file_digest, write_json
+from mitsar.io import ProductFileError, WorkFolder, check_writable, scene_digest, write_json
 from mitsar.plots import navigation as plots_navigation
 from mitsar.plots.figures import plot_cuts, plot_image, target_marks
 from mitsar.plots.footprint import plot_footprint
@@ -151,7 +151,7 @@ def run_experiment(path: str | Path, out_dir: str | Path, *, overrides: Sequence
         apply_overrides(document, overrides, str(path)), source=path)
     inputs = {"command": "run", "document": document, "overrides": list(overrides),
               "algorithms": list(algorithms or []), "realisations": int(realisations),
-              "scene": _scene_digest(path, document.get("scene"))}
+              "scene": scene_digest(path, document.get("scene"))}
     say = (lambda message: print(message, file=sys.stderr, flush=True)) if progress else None
     with WorkFolder(out, inputs, command="run", log=say) as work:
         folder = work.file(RUN_FOLDER)
@@ -176,18 +176,6 @@ def run_experiment(path: str | Path, out_dir: str | Path, *, overrides: Sequence
 RUN_FOLDER = "run"
 """Sub-folder of a ``mitsar run``'s work folder (:class:`mitsar.io.WorkFolder`) where the run
 is made; moved into the output folder when finished."""
-
-
-def _scene_digest(path: Path, scene: Any) -> str | None:
-    """The content hash of an experiment's scene file (a canned scene: its name), for the
-    inputs of a resumable run."""
-    if not isinstance(scene, str):
-        return None
-    for candidate in (Path(scene), path.parent / scene):
-        digest = file_digest(candidate)
-        if digest:
-            return digest
-    return scene
 
 
 def _ambiguity(run: RunFolder, path: Path, document: dict[str, Any], progress: bool) -> None:
