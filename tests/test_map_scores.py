@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import math
 import xml.etree.ElementTree as ET
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -22,9 +21,9 @@ from mitsar.features.truth import (
     scene_truth,
 )
 from mitsar.model.geometry.attitude import antenna_frame
-from mitsar.scene import box_mesh, load_scene, write_ply
+from mitsar.scene import box_mesh, canned, load_scene, write_ply
 
-CANNED = Path(mitsar.__file__).parent / "scene" / "canned"
+CANNED = canned.SCENE_DIR  # scenes/ (installed as mitsar._scenes)
 RADAR = mitsar.Radar()
 TAU = 0.05
 
