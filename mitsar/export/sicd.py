@@ -48,7 +48,8 @@ import xarray as xr
 from mitsar.errors import ParameterError
 from mitsar.export.frame import DEFAULT_ORIGIN, LabOrigin
 from mitsar.export.optional import require_sarkit
-from mitsar.focus.aperture import mean_track_frame
+from mitsar.focus.aperture import aperture_half_width, mean_track_frame
+from mitsar.focus.nesz import unit_peak_amplitude
 from mitsar.focus.windows import evaluate_window, window_coefficients
 from mitsar.io import atomic_writer
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
@@ -220,6 +221,82 @@ def _track_at(when: np.ndarray, time: np.ndarray, positions: np.ndarray,
     position[before] = positions[0] + (when[before] - time[0])[:, None] * velocities[0]
     position[after] = positions[-1] + (when[after] - time[-1])[:, None] * velocities[-1]
     return position, velocity
+
+
+def ground_points(points: np.ndarray, arp: np.ndarray, velocity: np.ndarray,
+                  height: float) -> np.ndarray:
+    """Where the scatterers imaged at ``points`` [m] lie on the horizontal surface
+    ``z = height`` [m]: the same range from the antenna ``arp`` at each point's COA and the same
+    along-track offset along ``velocity`` (the range sphere and Doppler cone, SICD Vol. 1 §4.3,
+    R/Rdot), on the point's side of the track."""
+    unit = velocity / np.linalg.norm(velocity, axis=1, keepdims=True)
+    offset = points - arp
+    along = np.einsum("pi,pi->p", offset, unit)
+    centre = arp + along[:, None] * unit
+    radius = np.sqrt(np.maximum(np.einsum("pi,pi->p", offset, offset) - along ** 2, 0.0))
+    side = offset - along[:, None] * unit
+    side[:, 2] = 0.0
+    side -= np.einsum("pi,pi->p", side, unit)[:, None] * unit
+    side /= np.maximum(np.linalg.norm(side, axis=1, keepdims=True), 1e-300)
+    lift = np.cross(unit, side)
+    lift *= np.sign(lift[:, 2:3] + (lift[:, 2:3] == 0))
+    sine = np.clip((height - centre[:, 2]) / np.where(np.abs(lift[:, 2]) > 1e-12,
+                                                      lift[:, 2], 1e-12) / radius, -1.0, 1.0)
+    return centre + radius[:, None] * (np.sqrt(1 - sine ** 2)[:, None] * side
+                                       + sine[:, None] * lift)
+
+
+def radiometric(raw: xr.Dataset, image: xr.Dataset, points: np.ndarray, ground: np.ndarray,
+                xrow: np.ndarray, ycol: np.ndarray, order: int, row_bandwidth: float,
+                col_bandwidth: float, window: str, range_window: str) -> dict | None:
+    """SICD ``Radiometric`` (NGA.STND.0024-1 Vol. 1 §4.10; Vol. 3 radiometric calibration)
+    from mitsar's radar equation, or None for normalised echoes (no watts).
+
+    SICD's factors hold for scatterers on the surface at the SCP's height (Vol. 1 §4.10), so
+    they are evaluated at ``ground``, where the scatterers imaged at the sample pixels
+    ``points`` lie (:func:`ground_points`). A point of RCS sigma focuses to the peak
+    ``sqrt(sigma) |h_0|``, ``|h_0|`` the focused peak of a 1 m^2 point at the pixel
+    (:func:`mitsar.focus.nesz.unit_peak_amplitude`: radar equation and two-way pattern over
+    the processed aperture). SICD's RCS is the scale factor times the pixel power integrated
+    over the response and normalised by the oversampling,
+    ``SS_r SS_c ImpRespBW_r ImpRespBW_c sum |p|^2``, which for a window ``w`` per dimension is
+    the peak power times ``prod mean(w^2) / mean(w)^2`` (Parseval). Hence
+    ``RCSSF = 1 / (|h_0|^2 prod mean(w^2)/mean(w)^2)``,
+    ``BetaZeroSF = RCSSF ImpRespBW_r ImpRespBW_c`` (per unit slant-plane area),
+    ``SigmaZeroSF = BetaZeroSF sin(theta_i)`` (per unit ground area, ``theta_i`` the incidence
+    on a horizontal surface) and ``GammaZeroSF = SigmaZeroSF / cos(theta_i)``; all fitted over
+    the image's sample pixels (order <= 2, metres from the SCP). ``NoiseLevel`` (``ABSOLUTE``,
+    ``NoisePoly`` in dB of pixel power) from the image's ``noise_power`` variable when the
+    focuser computed it (mitsar.focus.nesz, the NESZ's noise floor).
+    """
+    if int(raw.attrs.get("normalized", 0)):
+        return None
+    radar = Radar.from_attrs(image.attrs)
+    resolution = image.attrs.get("azimuth_resolution_requested",
+                                 image.attrs.get("azimuth_resolution"))
+    half_width = aperture_half_width(radar, None if resolution is None else float(resolution))
+    peak, sin_incidence = unit_peak_amplitude(raw, ground, half_width, window)
+
+    def shape(name: str) -> float:
+        weights = evaluate_window(window_coefficients(name), (np.arange(256) + 0.5) / 256)
+        return float(np.mean(weights ** 2) / np.mean(weights) ** 2)
+
+    rcs = 1.0 / (peak ** 2 * shape(window) * shape(range_window))
+    beta = rcs * row_bandwidth * col_bandwidth
+    sigma = beta * sin_incidence
+    gamma = sigma / np.sqrt(np.clip(1.0 - sin_incidence ** 2, 1e-12, 1.0))
+    result = {name: _fit_poly2d(xrow, ycol, values, order) for name, values in
+              (("RCSSFPoly", rcs), ("SigmaZeroSFPoly", sigma), ("BetaZeroSFPoly", beta),
+               ("GammaZeroSFPoly", gamma))}
+    if "noise_power" in image.variables:
+        noise = np.asarray(image["noise_power"].values, float)
+        index = [np.argmin(np.linalg.norm(image["position"].values - point, axis=-1))
+                 for point in points]
+        level = noise.ravel()[index]
+        if np.all(level > 0):
+            result = {"NoiseLevel": {"NoiseLevelType": "ABSOLUTE", "NoisePoly": _fit_poly2d(
+                xrow, ycol, 10 * np.log10(level), order)}, **result}
+    return result
 
 
 def _fit_poly2d(x: np.ndarray, y: np.ndarray, values: np.ndarray, order: int) -> np.ndarray:
@@ -402,6 +479,13 @@ def write_sicd(image_product: xr.Dataset, path: str | os.PathLike, *,
             "RcvFMRate": radar.chirp_rate}]},
         "TxPolarization": "V",
         "RcvChannels": {"ChanParameters": [{"TxRcvPolarization": "V:V"}]}}
+    _, velocity_at_coa = _track_at(coa, time, arp_lab, velocity_lab)
+    calibration = radiometric(raw, image, sample_points,
+                              ground_points(sample_points, arp_at_coa, velocity_at_coa,
+                                            float(scp_lab[2])), xrow, ycol, poly_order,
+                              1.0 / row_resolution, 1.0 / col_resolution, window, range_window)
+    if calibration is not None:
+        xml["Radiometric"] = calibration
     xml["ImageFormation"] = {
         "RcvChanProc": {"NumChanProc": 1, "ChanIndex": [1]},
         "TxRcvPolarizationProc": "V:V", "TStartProc": float(time[0]),
