@@ -444,6 +444,12 @@ def write_sicd(image_product: xr.Dataset, path: str | os.PathLike, *,
                    + ground[1] * c * layout["col_spacing"]
                    for r, c in zip(corner_rows, corner_cols, strict=True)]
     corners = wgs84.cartesian_to_geodetic(origin.to_ecf(np.array(corners_lab)))[:, :2]
+    # RadarCollection/Area (Vol. 1 §4.8): the imaged ground corners, clockwise seen from above
+    ring = np.array(corners_lab)[:, :2]
+    clockwise = float(np.sum(ring[:, 0] * np.roll(ring[:, 1], -1)
+                             - np.roll(ring[:, 0], -1) * ring[:, 1])) < 0
+    area_corners = wgs84.cartesian_to_geodetic(
+        origin.to_ecf(np.array(corners_lab if clockwise else corners_lab[::-1])))
 
     ns = SICD_NAMESPACE
     root = etree.Element(f"{{{ns}}}SICD", nsmap={None: ns})
@@ -478,7 +484,8 @@ def write_sicd(image_product: xr.Dataset, path: str | os.PathLike, *,
             "RcvWindowLength": radar.sweep_duration, "ADCSampleRate": radar.sampling_frequency,
             "RcvFMRate": radar.chirp_rate}]},
         "TxPolarization": "V",
-        "RcvChannels": {"ChanParameters": [{"TxRcvPolarization": "V:V"}]}}
+        "RcvChannels": {"ChanParameters": [{"TxRcvPolarization": "V:V"}]},
+        "Area": {"Corner": area_corners}}
     _, velocity_at_coa = _track_at(coa, time, arp_lab, velocity_lab)
     calibration = radiometric(raw, image, sample_points,
                               ground_points(sample_points, arp_at_coa, velocity_at_coa,
