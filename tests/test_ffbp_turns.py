@@ -13,6 +13,7 @@ import math
 
 import numpy as np
 import pytest
+from test_curved_tracks import _broadside_point  # tests/ is on sys.path (no __init__.py)
 
 import mitsar
 from mitsar.focus import ffbp as ffbp_module
@@ -33,14 +34,9 @@ def error_db(image, reference):
 
 
 def _broadside_raw(track: mitsar.Trajectory, time: float) -> tuple:
-    """Raw data of a point seen broadside (left) at ``time``, and the point."""
-    position, velocity = track.position(np.array([time]))[0], track.velocity(np.array([time]))[0]
-    heading = velocity / np.linalg.norm(velocity)
-    left = np.array([-heading[1], heading[0], 0.0])
-    target = np.array([position[0], position[1], 0.0]) + HEIGHT * math.tan(
-        math.radians(LOOK.off_nadir_deg)) * left
-    raw = mitsar.simulate_point_targets(RADAR, track, LOOK, [mitsar.PointTarget(target)],
-                                        normalized=True)
+    """Raw data of a point seen broadside (left) at ``time``, and the point
+    (tests/test_curved_tracks.py's set-up: same radar, look and height)."""
+    raw, target, _ = _broadside_point(track, time)
     return raw, target
 
 
