@@ -7,12 +7,16 @@ and every kernel family:
   frozen background patch, in echo samples/s (sweeps x samples x scatterers);
 - ``bpa``: the back-projection kernel (``backproject_drjit``) on a ground grid around the
   paper's target, in pixel-pulses/s (pixels x sweeps);
+- ``bpa_tiled``: the same sum by pixel groups (:func:`mitsar.focus.bp_tiled.backproject_tiled`,
+  the path of ``mitsar.focus(algorithm="bpa")`` on a grid), same size and unit;
 - ``ffbp``: fast factorised back-projection end to end (``mitsar.focus(algorithm="ffbp")``,
   range compression and the normalisation included), in BPA-equivalent pixel-pulses/s;
 - ``tracer``: the ``radar`` integrator on the canned ``control_volume`` room
   (:func:`mitsar.raw.traced.trace`, warm: scatterers and kernels cached), in contributions/s
   (scatterer x sweep pairs that survive the beam cull: visibility + phase + deposit) and
-  scatterer x sweep pairs/s; the Mitsuba variant follows the backend.
+  scatterer x sweep pairs/s; the Mitsuba variant follows the backend;
+- ``tracer_channels``: the same trace with two receivers 5 cm apart (one trace per
+  transmitter serves both, docs/interferometry.md), and the wall ratio to one receiver.
 
 Every case is run once to compile (kernel caches), then timed best of ``--repeats``; the
 functions return NumPy arrays or products, so the time includes the device synchronisation
@@ -40,11 +44,13 @@ import mitsar
 from mitsar import backend
 from mitsar.backend import use_backend
 from mitsar.focus.backprojection import backproject_drjit
+from mitsar.focus.bp_tiled import backproject_tiled
 from mitsar.focus.compression import range_spectrum
 from mitsar.focus.grid import SlantGrid
 from mitsar.focus.windows import window_coefficients
 
 RADAR = mitsar.Radar()
+PAIR = mitsar.Radar(receivers=[(0, 0, 0), (0, 0, 0.05)])  # two receive channels, 5 cm apart
 LOOK = mitsar.Look(math.degrees(math.atan2(6.6, 4.5)))
 VARIANTS = {"llvm": "llvm_ad_mono", "cuda": "cuda_ad_mono"}
 
@@ -80,7 +86,7 @@ def analytic_case(scale: float, repeats: int) -> dict:
                     "scatterers"}
 
 
-def bpa_case(scale: float, repeats: int) -> dict:
+def bpa_case(scale: float, repeats: int, tiled: bool = False) -> dict:
     sweeps, side = 1000, max(16, int(round(256 * scale)))
     raw = paper_target_raw(sweeps, RADAR)
     frequency, profile = range_spectrum(raw["raw"].values, RADAR, upsample=16)
@@ -91,9 +97,16 @@ def bpa_case(scale: float, repeats: int) -> dict:
                  raw["platform_velocity"].values,
                  raw["boresight"].values @ np.array([1.0, 0, 0]), 1.0,
                  window_coefficients("rect"))
-    cold, best, _ = _best(lambda: backproject_drjit(*arguments), repeats)
+    if tiled:  # the pixel groups of focus(algorithm="bpa") on a grid: rows of `side` pixels
+        cold, best, _ = _best(lambda: backproject_tiled(*arguments, row_length=side), repeats)
+    else:
+        cold, best, _ = _best(lambda: backproject_drjit(*arguments), repeats)
     return {"unit": "pixel-pulses", "work": len(pixels) * sweeps, "seconds": best,
             "cold_seconds": cold, "size": f"{side}x{side} pixels x {sweeps} sweeps"}
+
+
+def bpa_tiled_case(scale: float, repeats: int) -> dict:
+    return bpa_case(scale, repeats, tiled=True)
 
 
 def ffbp_case(scale: float, repeats: int) -> dict:
@@ -114,7 +127,7 @@ def ffbp_case(scale: float, repeats: int) -> dict:
             "cold_seconds": cold, "size": f"{pixels} pixels x {sweeps} sweeps"}
 
 
-def tracer_case(name: str, scale: float, repeats: int) -> dict:
+def tracer_case(name: str, scale: float, repeats: int, radar: mitsar.Radar = RADAR) -> dict:
     from mitsar.plugins.variant import register_plugins
     from mitsar.raw.traced import trace
     from mitsar.scene import load_scene
@@ -124,7 +137,7 @@ def tracer_case(name: str, scale: float, repeats: int) -> dict:
     sweeps = max(8, int(round(512 * scale)))
     trajectory = mitsar.Trajectory.linear([14.8, 1.4, 4.5], [0.5, 0.0, 0.0],
                                           (sweeps + 0.5) / RADAR.prf)
-    cold, best, hist = _best(lambda: trace(RADAR, trajectory, LOOK, scene, seed=0,
+    cold, best, hist = _best(lambda: trace(radar, trajectory, LOOK, scene, seed=0,
                                            deterministic=False), repeats)
     attrs = hist.attrs
     return {"unit": "contributions", "work": int(attrs["traced_shadow_rays"]),
@@ -132,7 +145,7 @@ def tracer_case(name: str, scale: float, repeats: int) -> dict:
             "size": f"{attrs['scatterer_count']:,} scatterers x {hist.sizes['sweep']} sweeps"}
 
 
-CASES = ("analytic", "bpa", "ffbp", "tracer")
+CASES = ("analytic", "bpa", "bpa_tiled", "ffbp", "tracer", "tracer_channels")
 
 
 def run_backend(name: str, cases: list[str], scale: float, repeats: int) -> dict:
@@ -142,8 +155,9 @@ def run_backend(name: str, cases: list[str], scale: float, repeats: int) -> dict
         for case in cases:
             start = time.perf_counter()
             try:
-                if case == "tracer":
-                    result = tracer_case(name, scale, repeats)
+                if case.startswith("tracer"):
+                    result = tracer_case(name, scale, repeats,
+                                         PAIR if case == "tracer_channels" else RADAR)
                 else:
                     result = globals()[f"{case}_case"](scale, repeats)
             except Exception as error:  # noqa: BLE001 - report, go on with the others
@@ -221,6 +235,12 @@ def main() -> None:
             ratios[case] = (gpu["work"] / gpu["seconds"]) / (cpu["work"] / cpu["seconds"])
             print(f"  {case:9s} {ratios[case]:8.1f}x")
         report["ratios"] = ratios
+    for name, cases_run in results.items():  # a second receiver's cost (the rays are shared)
+        one, two = cases_run.get("tracer", {}), cases_run.get("tracer_channels", {})
+        if "seconds" in one and "seconds" in two:
+            report.setdefault("second_receiver", {})[name] = two["seconds"] / one["seconds"]
+            print(f"{name:5s} tracer with two receivers / one: "
+                  f"{two['seconds'] / one['seconds']:.2f}x wall")
     if args.json:
         with open(args.json, "w") as out:
             json.dump(report, out, indent=1)
