@@ -25,8 +25,32 @@ from mitsar.version import __version__
 
 __all__ = ["build_parser"]
 
-_HELP = argparse.ArgumentDefaultsHelpFormatter
-"""Sub-command help shows every option's default."""
+
+
+class _DefaultsFormatter(argparse.HelpFormatter):
+    """Help that shows an option's default once, and only when it says something.
+
+    ``argparse.ArgumentDefaultsHelpFormatter`` appends ``(default: ...)`` to every option,
+    which gave ``(default: None)`` for options whose default is "from the experiment" and a
+    second default after help texts that already state theirs. Here a default is appended only
+    when the help text does not mention one, and only when it is a value (not ``None``, a flag's
+    ``False``, an empty list or ``SUPPRESS``); positional arguments show none.
+    """
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        text = action.help or ""
+        default = action.default
+        if ("default" in text.lower() or not action.option_strings
+                or default is None or default is argparse.SUPPRESS
+                or isinstance(default, bool) or default in ([], ())):
+            return text
+        shown = (" ".join(str(v) for v in default) if isinstance(default, list | tuple)
+                 else str(default))
+        return f"{text} (default: {shown.replace('%', '%%')})"
+
+
+_HELP = _DefaultsFormatter
+"""Sub-command help shows each meaningful default once."""
 
 
 def _add_output(parser: argparse.ArgumentParser, help_text: str, required: bool = True) -> None:
