@@ -51,3 +51,18 @@ def test_footprint_lies_where_the_beam_meets_the_rendered_scene():
                         ids.index("wall_y10"))
     shown = view.shape[row[inside], column[inside]]
     assert np.mean(shown == expected) > 0.9  # pixels on the floor/wall edge may show either
+
+
+def test_preview_prints_no_mitsuba_film_warning(tmp_path):
+    """Mitsuba's ``WARN [HDRFilm] Monochrome mode enabled`` (printed by its C++ logger, in red)
+    is not provoked: the film asks for the luminance a mono variant develops anyway."""
+    import subprocess
+    import sys
+
+    out = tmp_path / "preview.png"
+    done = subprocess.run([sys.executable, "-m", "mitsar", "preview",
+                           str(example_path("paper_point_target")), "-o", str(out)],
+                          capture_output=True, text=True, timeout=300, check=True)
+    assert out.is_file()
+    assert "HDRFilm" not in done.stdout + done.stderr
+    assert "WARN" not in done.stdout + done.stderr

@@ -72,7 +72,9 @@ def render_view(scene: Any, camera: Camera) -> View:
                                                    target=list(camera.target),
                                                    up=list(camera.up)),
         "film": {"type": "hdrfilm", "width": int(camera.width), "height": int(camera.height),
-                 "rfilter": {"type": "box"}},
+                 "rfilter": {"type": "box"},
+                 # mono variants develop luminance; asked for, Mitsuba does not warn of it
+                 "pixel_format": "luminance" if "mono" in mi.variant() else "rgb"},
         "sampler": {"type": "independent", "sample_count": 1}})
     integrator = mi.load_dict({"type": "aov", "aovs": "dd:depth,nn:geo_normal,si:shape_index"})
     mi.render(scene, sensor=sensor, integrator=integrator, spp=1)
