@@ -3,28 +3,44 @@
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
+from importlib import import_module
+from types import ModuleType
 from typing import Any
 
-from mitsar.cli.ambiguity import cmd_ambiguity
-from mitsar.cli.campaigns import cmd_montecarlo, cmd_sweep
-from mitsar.cli.demo import cmd_demo
-from mitsar.cli.interferometry import cmd_interferogram
-from mitsar.cli.report import cmd_report, cmd_run
-from mitsar.cli.scene import cmd_preview, cmd_rays
-from mitsar.cli.stages import (
-    cmd_export,
-    cmd_focus,
-    cmd_metrics,
-    cmd_plot,
-    cmd_range,
-    cmd_simulate,
-)
 from mitsar.experiment.options import ALGORITHMS, AUTOFOCUS_METHODS, ISLR_EXTENTS, WINDOWS
 from mitsar.experiment.runs import RESUME_CHUNK_SWEEPS
 from mitsar.version import __version__
 
 __all__ = ["build_parser"]
 
+
+def _command(name: str, load: Callable[[], ModuleType]) -> Callable[[argparse.Namespace], int]:
+    """The command function ``name`` of the module that ``load`` imports, imported when the
+    command runs: a command loads only its own stages (a no-op campaign rerun never loads
+    Mitsuba or Matplotlib)."""
+    def run(args: argparse.Namespace) -> int:
+        return getattr(load(), name)(args)
+    run.__name__ = run.__qualname__ = name
+    return run
+
+
+cmd_ambiguity = _command("cmd_ambiguity", lambda: import_module("mitsar.cli.ambiguity"))
+cmd_montecarlo = _command("cmd_montecarlo", lambda: import_module("mitsar.cli.campaigns"))
+cmd_sweep = _command("cmd_sweep", lambda: import_module("mitsar.cli.campaigns"))
+cmd_demo = _command("cmd_demo", lambda: import_module("mitsar.cli.demo"))
+cmd_interferogram = _command("cmd_interferogram",
+                              lambda: import_module("mitsar.cli.interferometry"))
+cmd_report = _command("cmd_report", lambda: import_module("mitsar.cli.report"))
+cmd_run = _command("cmd_run", lambda: import_module("mitsar.cli.report"))
+cmd_preview = _command("cmd_preview", lambda: import_module("mitsar.cli.scene"))
+cmd_rays = _command("cmd_rays", lambda: import_module("mitsar.cli.scene"))
+cmd_export = _command("cmd_export", lambda: import_module("mitsar.cli.stages"))
+cmd_focus = _command("cmd_focus", lambda: import_module("mitsar.cli.stages"))
+cmd_metrics = _command("cmd_metrics", lambda: import_module("mitsar.cli.stages"))
+cmd_plot = _command("cmd_plot", lambda: import_module("mitsar.cli.stages"))
+cmd_range = _command("cmd_range", lambda: import_module("mitsar.cli.stages"))
+cmd_simulate = _command("cmd_simulate", lambda: import_module("mitsar.cli.stages"))
 
 
 class _DefaultsFormatter(argparse.HelpFormatter):
