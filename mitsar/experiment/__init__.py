@@ -7,18 +7,24 @@ Configuration (:mod:`~mitsar.experiment.options`, read and validated by
 pass (:func:`simulate_passes`). Bundled examples: :mod:`~mitsar.experiment.examples`.
 """
 
-from mitsar.experiment.examples import example_path, examples_dir
-from mitsar.experiment.loading import experiment_from_dict, load_experiment, load_grid
-from mitsar.experiment.options import Experiment, FocusOptions, MetricsOptions, Pass
-from mitsar.experiment.runs import (
-    pass_experiment,
-    run_focus,
-    run_focus_passes,
-    run_metrics,
-    run_simulation,
-    simulate_pass,
-    simulate_passes,
-)
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # the same names for type checkers and the API docs (griffe reads these)
+    from mitsar.experiment.examples import example_path, examples_dir
+    from mitsar.experiment.loading import experiment_from_dict, load_experiment, load_grid
+    from mitsar.experiment.options import Experiment, FocusOptions, MetricsOptions, Pass
+    from mitsar.experiment.runs import (
+        pass_experiment,
+        run_focus,
+        run_focus_passes,
+        run_metrics,
+        run_simulation,
+        simulate_pass,
+        simulate_passes,
+    )
 
 __all__ = [
     "Experiment", "FocusOptions", "MetricsOptions", "Pass", "example_path",
@@ -26,3 +32,35 @@ __all__ = [
     "run_focus", "run_focus_passes", "run_metrics", "run_simulation", "simulate_pass",
     "simulate_passes",
 ]
+
+_EXPORTS = {
+    "Experiment": "mitsar.experiment.options",
+    "FocusOptions": "mitsar.experiment.options",
+    "MetricsOptions": "mitsar.experiment.options",
+    "Pass": "mitsar.experiment.options",
+    "example_path": "mitsar.experiment.examples",
+    "examples_dir": "mitsar.experiment.examples",
+    "experiment_from_dict": "mitsar.experiment.loading",
+    "load_experiment": "mitsar.experiment.loading",
+    "load_grid": "mitsar.experiment.loading",
+    "pass_experiment": "mitsar.experiment.runs",
+    "run_focus": "mitsar.experiment.runs",
+    "run_focus_passes": "mitsar.experiment.runs",
+    "run_metrics": "mitsar.experiment.runs",
+    "run_simulation": "mitsar.experiment.runs",
+    "simulate_pass": "mitsar.experiment.runs",
+    "simulate_passes": "mitsar.experiment.runs",
+}
+"""Public names -> the module that defines each, imported on first use (PEP 562)."""
+
+
+def __getattr__(name: str) -> Any:
+    """Import a public name on first use (PEP 562) and keep it in the package's namespace."""
+    if name not in _EXPORTS:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = globals()[name] = getattr(importlib.import_module(_EXPORTS[name]), name)
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

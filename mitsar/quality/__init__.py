@@ -6,11 +6,43 @@ upsampling they run on in :mod:`~mitsar.quality.upsample`, the image's geometry 
 search in :mod:`~mitsar.quality.geometry` and :mod:`~mitsar.quality.peak`.
 """
 
-from mitsar.quality.cuts import ISLR_EXTENTS, first_nulls, irw, islr_db, measure_cut, pslr_db
-from mitsar.quality.impulse import measure_impulse_response
-from mitsar.quality.upsample import band_fill_db, upsample_chip, upsample_cut
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # the same names for type checkers and the API docs (griffe reads these)
+    from mitsar.quality.cuts import ISLR_EXTENTS, first_nulls, irw, islr_db, measure_cut, pslr_db
+    from mitsar.quality.impulse import measure_impulse_response
+    from mitsar.quality.upsample import band_fill_db, upsample_chip, upsample_cut
 
 __all__ = [
     "ISLR_EXTENTS", "band_fill_db", "first_nulls", "irw", "islr_db", "measure_cut",
     "measure_impulse_response", "pslr_db", "upsample_chip", "upsample_cut",
 ]
+
+_EXPORTS = {
+    "ISLR_EXTENTS": "mitsar.quality.cuts",
+    "band_fill_db": "mitsar.quality.upsample",
+    "first_nulls": "mitsar.quality.cuts",
+    "irw": "mitsar.quality.cuts",
+    "islr_db": "mitsar.quality.cuts",
+    "measure_cut": "mitsar.quality.cuts",
+    "measure_impulse_response": "mitsar.quality.impulse",
+    "pslr_db": "mitsar.quality.cuts",
+    "upsample_chip": "mitsar.quality.upsample",
+    "upsample_cut": "mitsar.quality.upsample",
+}
+"""Public names -> the module that defines each, imported on first use (PEP 562)."""
+
+
+def __getattr__(name: str) -> Any:
+    """Import a public name on first use (PEP 562) and keep it in the package's namespace."""
+    if name not in _EXPORTS:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = globals()[name] = getattr(importlib.import_module(_EXPORTS[name]), name)
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

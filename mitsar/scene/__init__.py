@@ -14,21 +14,56 @@
 - :mod:`mitsar.scene.canned`: the bundled XML scenes by name (the files: ``scenes/``).
 """
 
-from mitsar.scene.loading import load_scene
-from mitsar.scene.masks import layover_shadow_masks
-from mitsar.scene.meshes import box_mesh, write_ply
-from mitsar.scene.scatterers import collect_scatterers
-from mitsar.scene.surfaces import (
-    ScenePointTarget,
-    SceneSurface,
-    SurfaceSamples,
-    SurfaceScatterers,
-    sample_surface_points,
-    sample_surface_scatterers,
-    scene_point_targets,
-    scene_surfaces,
-)
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # the same names for type checkers and the API docs (griffe reads these)
+    from mitsar.scene.loading import load_scene
+    from mitsar.scene.masks import layover_shadow_masks
+    from mitsar.scene.meshes import box_mesh, write_ply
+    from mitsar.scene.scatterers import collect_scatterers
+    from mitsar.scene.surfaces import (
+        ScenePointTarget,
+        SceneSurface,
+        SurfaceSamples,
+        SurfaceScatterers,
+        sample_surface_points,
+        sample_surface_scatterers,
+        scene_point_targets,
+        scene_surfaces,
+    )
 
 __all__ = ["ScenePointTarget", "SceneSurface", "SurfaceSamples", "SurfaceScatterers", "box_mesh",
            "collect_scatterers", "layover_shadow_masks", "load_scene", "sample_surface_points",
            "sample_surface_scatterers", "scene_point_targets", "scene_surfaces", "write_ply"]
+
+_EXPORTS = {
+    "ScenePointTarget": "mitsar.scene.surfaces",
+    "SceneSurface": "mitsar.scene.surfaces",
+    "SurfaceSamples": "mitsar.scene.surfaces",
+    "SurfaceScatterers": "mitsar.scene.surfaces",
+    "box_mesh": "mitsar.scene.meshes",
+    "collect_scatterers": "mitsar.scene.scatterers",
+    "layover_shadow_masks": "mitsar.scene.masks",
+    "load_scene": "mitsar.scene.loading",
+    "sample_surface_points": "mitsar.scene.surfaces",
+    "sample_surface_scatterers": "mitsar.scene.surfaces",
+    "scene_point_targets": "mitsar.scene.surfaces",
+    "scene_surfaces": "mitsar.scene.surfaces",
+    "write_ply": "mitsar.scene.meshes",
+}
+"""Public names -> the module that defines each, imported on first use (PEP 562)."""
+
+
+def __getattr__(name: str) -> Any:
+    """Import a public name on first use (PEP 562) and keep it in the package's namespace."""
+    if name not in _EXPORTS:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = globals()[name] = getattr(importlib.import_module(_EXPORTS[name]), name)
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
