@@ -62,8 +62,12 @@ def test_report_of_a_run_folder_and_its_errors(tmp_path):
                  "-a", "bpa", "wda", "-n", "2", "--set", "trajectory.duration=0.8"]) == 0
     record = json.loads((out / RUN_RECORD).read_text())
     assert set(record["metrics"]) == {"bpa", "wda"}
-    table = record["tables"][0]
-    assert [row[0] for row in table["rows"]][-1] == "paper: wda azimuth"  # Table 4 beside ours
+    titles = [table["title"] for table in record["tables"]]
+    assert titles[0].startswith("Comparison with the paper's Table 4")  # one realisation
+    table = record["tables"][1]
+    assert table["title"].startswith("Monte Carlo over 2")
+    assert [row[0] for row in table["rows"]][-1] == "paper Table 4: WDA azimuth"  # beside ours
+    assert "IRW mean [cells]" in table["header"] and "PSLR variance [dB²]" in table["header"]
     assert {"background.png", "montecarlo/cuts_wda.png"} <= {f["file"]
                                                              for f in record["figures"]}
     page = (out / "report.html").read_text()

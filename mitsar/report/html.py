@@ -27,7 +27,9 @@ import html
 import json
 import math
 import platform
+import re
 import sys
+from collections.abc import Sequence
 from importlib import metadata
 from pathlib import Path
 from typing import Any
@@ -54,11 +56,17 @@ body { font-family: system-ui, sans-serif; margin: 2em auto; max-width: 1100px; 
 h1 { font-size: 1.6em; } h2 { border-bottom: 1px solid #ccc; padding-bottom: .2em; }
 table { border-collapse: collapse; margin: .5em 0 1.5em; }
 th, td { border: 1px solid #ccc; padding: .25em .6em; text-align: right; }
-th { background: #f3f3f3; } td.name { text-align: left; }
+th { background: #f3f3f3; } td.name, th:first-child { text-align: left; }
 figure { margin: 1em 0 2em; } figure img { max-width: 100%; border: 1px solid #ddd; }
 figcaption { color: #555; font-size: .9em; }
 pre { background: #f7f7f7; padding: 1em; overflow-x: auto; font-size: .85em; }
 .warning { background: #fff4e5; border-left: 4px solid #f0a020; padding: .4em .8em; }
+td.text { text-align: left; } td.message { text-align: left; white-space: normal;
+  max-width: 60em; color: #7a4a00; background: #fffaf2; }
+p.note { color: #555; font-size: .9em; max-width: 60em; }
+details { margin: .5em 0 1.5em; } summary { cursor: pointer; color: #333; }
+#render-check { color: #777; font-size: .85em; border-top: 1px solid #ddd; padding-top: .5em; }
+#render-check.failed { color: #a00; }
 """
 
 _CHECK = """
@@ -70,8 +78,18 @@ window.addEventListener("load", function () {
   var check = document.getElementById("render-check");
   check.setAttribute("data-loaded", String(ok));
   check.setAttribute("data-failed", String(failed.length));
-  check.textContent = ok + " of " + images.length + " figures rendered"
-    + (failed.length ? "; missing: " + failed.join(", ") : "");
+  check.textContent = "Page check: " + ok + " of " + images.length
+    + " embedded figures decoded by this browser"
+    + (failed.length ? "; missing: " + failed.join(", ") : "") + ".";
+  if (failed.length) {
+    check.className = "failed";
+    var note = document.createElement("p");
+    note.className = "warning";
+    note.textContent = failed.length + " figure(s) of this page did not decode: "
+      + failed.join(", ") + " (see the page check at the bottom).";
+    var title = document.querySelector("h1");
+    title.parentNode.insertBefore(note, title.nextSibling);
+  }
 });
 """
 
@@ -161,28 +179,208 @@ def provenance(seeds: dict[str, Any] | None = None) -> dict[str, Any]:
     return {"versions": versions, "platform": platform.platform(), "seeds": seeds or {}}
 
 
-def _table(header: list[str], rows: list[list[Any]]) -> str:
+_UNIT_FORMATS = {"cells": ".3f", "dB": ".2f", "m": ".3f", "mm": ".1f", "cm": ".2f",
+                 "deg": ".2f", "s": ".2f", "rad": ".3f", "nats": ".4f", "%": ".1f",
+                 "cells²": ".4f", "dB²": ".3f", "m/s": ".3f"}
+"""Format of a table column by the unit in its heading (``"range IRW [cells]"``): one
+precision per quantity, about a thousandth of its natural scale (IRW in cells to 0.001, levels
+in dB to 0.01, lengths in m to a millimetre)."""
+
+
+def _unit(heading: str) -> str | None:
+    """The unit in a column heading's last ``[...]``, or None."""
+    found = re.findall(r"\[([^\]]+)\]", heading)
+    return found[-1].strip() if found else None
+
+
+def _numbers(value: Any) -> list[float]:
+    """The finite floats in a cell (a number or a list of numbers)."""
+    values = value if isinstance(value, list | tuple) else [value]
+    return [float(v) for v in values
+            if isinstance(v, float) and not isinstance(v, bool) and math.isfinite(v)]
+
+
+def _column_format(heading: str, column: Sequence[Any]) -> str:
+    """The one format of a column's numbers: by the unit of its heading
+    (:data:`_UNIT_FORMATS`), else fixed decimals giving four significant digits to the
+    column's largest magnitude (so ``0.892`` and ``0.8951`` are never side by side)."""
+    unit = _unit(heading)
+    if unit in _UNIT_FORMATS:
+        return _UNIT_FORMATS[unit]
+    numbers = [abs(v) for cell in column for v in _numbers(cell)]
+    if not numbers or max(numbers) == 0:
+        return ".4g"
+    largest = max(numbers)
+    if largest >= 1e6 or largest < 1e-3:
+        return ".3e"
+    return f".{max(0, 3 - math.floor(math.log10(largest)))}f"
+
+
+def _cell(value: Any, spec: str) -> str:
+    """The text of one cell: floats with the column's format, lists element by element,
+    booleans as yes / no, NaN and None as n/a."""
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if value is None:
+        return "n/a"
+    if isinstance(value, float):
+        return format(value, spec) if math.isfinite(value) else "n/a"
+    if isinstance(value, list | tuple):
+        return "[" + ", ".join(_cell(v, spec) for v in value) + "]"
+    return str(value)
+
+
+def _table(header: Sequence[str], rows: Sequence[Sequence[Any]],
+           formats: Sequence[str | None] | None = None) -> str:
+    """An HTML table; the first column names the row (left-aligned), numbers are right-aligned
+    with one format per column (``formats``, else :func:`_column_format`), text left-aligned.
+    A row ``[name, {"message": text}]`` is a message spanning the other columns (a step that
+    could not run), wrapped and readable instead of squeezed into one cell."""
     head = "".join(f"<th>{html.escape(str(h))}</th>" for h in header)
+    plain = [row for row in rows if not (len(row) == 2 and isinstance(row[1], dict))]
+    specs = [(formats[i] if formats and i < len(formats) and formats[i] else None)
+             or _column_format(str(heading), [row[i] for row in plain if i < len(row)])
+             for i, heading in enumerate(header)]
     body = []
     for row in rows:
         cells = [f'<td class="name">{html.escape(str(row[0]))}</td>']
-        for value in row[1:]:
-            text = f"{value:.4g}" if isinstance(value, float) else str(value)
-            cells.append(f"<td>{html.escape(text)}</td>")
+        if len(row) == 2 and isinstance(row[1], dict) and "message" in row[1]:
+            cells.append(f'<td class="message" colspan="{max(len(header) - 1, 1)}">'
+                         f"{html.escape(str(row[1]['message']))}</td>")
+        else:
+            for i, value in enumerate(row[1:], start=1):
+                text = _cell(value, specs[i] if i < len(specs) else ".4g")
+                numeric = (isinstance(value, int | float) and not isinstance(value, bool)
+                           or bool(_numbers(value))
+                           or isinstance(value, str) and re.match(r"[-+−]?\d", value))
+                kind = "" if numeric else ' class="text"'
+                cells.append(f"<td{kind}>{html.escape(text)}</td>")
         body.append("<tr>" + "".join(cells) + "</tr>")
     return f"<table><tr>{head}</tr>{''.join(body)}</table>"
 
 
+METRICS_HEADER = ["algorithm", "range IRW [cells]", "range PSLR [dB]", "range ISLR [dB]",
+                  "azimuth IRW [cells]", "azimuth PSLR [dB]", "azimuth ISLR [dB]",
+                  "peak offset [mm]"]
+"""Columns of the report's image-quality table (peak offset from the metrics target)."""
+
+
 def _metrics_rows(metrics: dict[str, Any]) -> list[list[Any]]:
-    rows = []
+    rows: list[list[Any]] = []
     for algorithm, result in metrics.items():
         if not isinstance(result, dict) or "range" not in result:
-            rows.append([algorithm, "not measurable: " + str(result), "", "", "", "", "", ""])
+            rows.append([algorithm, {"message": "not measurable: " + str(result)}])
             continue
-        rows.append([algorithm] + [result[d][k] for d in ("range", "azimuth")
+        offset = result.get("peak_offset_m")
+        rows.append([algorithm] + [float(result[d][k]) for d in ("range", "azimuth")
                                    for k in ("irw_cells", "pslr_db", "islr_db")]
-                    + [result.get("peak_offset_m", float("nan"))])
+                    + [float("nan") if offset is None else 1e3 * float(offset)])
     return rows
+
+
+def _toml_value(value: Any) -> str:
+    """A value as TOML writes it: strings quoted with their own characters (``§``, not
+    ``\\u00a7``), floats in their shortest exact form, lists and dicts inline."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float):
+        if not math.isfinite(value):
+            return "nan" if math.isnan(value) else ("inf" if value > 0 else "-inf")
+        if value != 0 and not 1e-3 <= abs(value) < 1e6:
+            return np.format_float_scientific(value, trim="-", exp_digits=1)
+        return repr(value)
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, str):
+        return json.dumps(value, ensure_ascii=False)
+    if isinstance(value, dict):
+        return "{" + ", ".join(f"{_toml_key(k)} = {_toml_value(v)}" for k, v in value.items()
+                               if v is not None) + "}"
+    if isinstance(value, list | tuple):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    return json.dumps(value, ensure_ascii=False)
+
+
+def _toml_key(key: str) -> str:
+    return key if re.fullmatch(r"[A-Za-z0-9_-]+", key) else json.dumps(key, ensure_ascii=False)
+
+
+def toml_text(document: dict[str, Any], prefix: str = "") -> list[str]:
+    """The lines of a configuration written in TOML's layout: keys before sub-tables,
+    ``[table]`` and ``[[array of tables]]`` headers (docs/experiments.md). Keys whose value is
+    None (not set: the default applies) are left out, as TOML has no null."""
+    lines: list[str] = []
+    scalars = {k: v for k, v in document.items() if v is not None and not isinstance(v, dict)
+               and not (isinstance(v, list) and v and all(isinstance(x, dict) for x in v))}
+    lines += [f"{_toml_key(k)} = {_toml_value(v)}" for k, v in scalars.items()]
+    for key, value in document.items():
+        name = f"{prefix}.{_toml_key(key)}" if prefix else _toml_key(key)
+        if isinstance(value, dict):
+            body = toml_text(value, name)
+            if not body or not body[0].startswith("["):
+                body = [f"[{name}]"] + body
+            lines += [""] + body
+        elif key not in scalars and isinstance(value, list) and value:
+            for entry in value:
+                lines += ["", f"[[{name}]]"] + toml_text(entry, name)
+    return lines
+
+
+def _configuration(record: dict[str, Any]) -> list[str]:
+    """The Configuration section: the effective experiment in TOML's layout, folded in a
+    ``<details>`` (the page stays short; a click shows it)."""
+    experiment = record.get("experiment") or {}
+    if not experiment:
+        return []
+    text = "\n".join(toml_text(experiment)).strip()
+    source = record.get("source")
+    where = f" of {html.escape(Path(source).name)}" if source else ""
+    return ["<h2>Configuration</h2>",
+            f'<details id="configuration"><summary>The effective experiment{where} in TOML '
+            f"({len(text.splitlines())} lines; keys not set, whose defaults apply, are left "
+            "out) &mdash; click to show</summary>"
+            f"<pre>{html.escape(text)}</pre></details>"]
+
+
+def _provenance(entry: dict[str, Any]) -> list[str]:
+    """The Provenance section: package versions and platform as a table, seeds below."""
+    if not entry:
+        return []
+    rows = [[name, str(version)] for name, version in entry.get("versions", {}).items()]
+    if entry.get("platform"):
+        rows.append(["platform", str(entry["platform"])])
+    parts = ["<h2>Provenance</h2>", _table(["package", "version"], rows)]
+    seeds = {k: v for k, v in entry.get("seeds", {}).items() if v is not None}
+    if seeds:
+        parts.append("<p>Seeds: " + html.escape(", ".join(
+            f"{k} = {_toml_value(v)}" for k, v in seeds.items())) + "</p>")
+    return parts
+
+
+AUTOFOCUS_HEADER = ["algorithm", "method", "iterations", "converged", "scatterers",
+                    "entropy before [nats]", "entropy after [nats]", "applied", "time [s]"]
+"""Columns of the report's autofocus table (``record["autofocus"]``; the image attributes
+``autofocus_*`` of :func:`mitsar.focus.autofocus.driver.run_autofocus`)."""
+
+
+def _autofocus(folder: Path, record: dict[str, Any]) -> list[str]:
+    """The Autofocus section: per image the method, its iterations and convergence, the whole
+    image's entropy before and after, whether the correction was applied, its time, and its
+    warning in full below the row; then the figures of the section (estimated phase error)."""
+    rows: list[list[Any]] = []
+    for algorithm, entry in record["autofocus"].items():
+        rows.append([algorithm, entry.get("method", "?"), entry.get("iterations", "n/a"),
+                     bool(entry.get("converged", True)), entry.get("scatterers", "n/a"),
+                     entry.get("entropy_before"), entry.get("entropy_after"),
+                     bool(entry.get("applied", True)), entry.get("seconds")])
+        if entry.get("warning"):
+            rows.append([f"{algorithm}: warning", {"message": entry["warning"]}])
+    parts = ["<h2>Autofocus</h2>", _table(AUTOFOCUS_HEADER, rows),
+             '<p class="note">Entropy of the whole image (lower is sharper; docs/autofocus.md). '
+             "A correction that raised it is not applied: the uncorrected image is kept.</p>"]
+    parts.extend(_figure(folder, figure) for figure in record.get("figures", [])
+                 if figure.get("section") == "Autofocus")
+    return parts
 
 
 def _figure(folder: Path, entry: dict[str, Any]) -> str:
@@ -231,7 +429,7 @@ def _interferometry(folder: Path, record: dict[str, Any]) -> list[str]:
         elif isinstance(value, float) and not math.isfinite(value):
             value = "nan"
         rows.append([key, value])
-    parts = ["<h2>Interferometry</h2>", _table(["quantity", "value"], rows)]
+    parts = ["<h2>Interferometry</h2>", _table(["quantity", "value"], rows, [None, ".4g"])]
     parts.extend(_figure(folder, figure) for figure in record.get("figures", [])
                  if figure.get("section") == "Interferometry")
     if entry.get("points"):
@@ -279,19 +477,23 @@ def build_report(folder: str | Path, overwrite: bool = True) -> Path:
         raise MitsarError(f"{record_path}: not a valid run record: {error}") from error
     title = html.escape(record.get("title") or "mitsar run")
     parts = [f"<h1>{title}</h1>",
-             f"<p>{html.escape(record.get('description', ''))}</p>",
-             '<p id="render-check" data-loaded="0" data-failed="-1">figures not checked</p>']
+             f"<p>{html.escape(record.get('description', ''))}</p>"]
     for warning in record.get("warnings", []):
         parts.append(f'<p class="warning">{html.escape(str(warning))}</p>')
     if record.get("metrics"):
         parts.append("<h2>Image quality</h2>")
-        parts.append(_table(["algorithm", "range IRW [cells]", "range PSLR [dB]",
-                             "range ISLR [dB]", "azimuth IRW [cells]", "azimuth PSLR [dB]",
-                             "azimuth ISLR [dB]", "peak offset [m]"],
-                            _metrics_rows(record["metrics"])))
+        parts.append(_table(METRICS_HEADER, _metrics_rows(record["metrics"])))
+        parts.append('<p class="note">Measured at the metrics target (IRW: -3 dB width in '
+                     "resolution cells; PSLR, ISLR: peak and integrated sidelobe ratios; peak "
+                     "offset: distance of the interpolated peak from the target; "
+                     "docs/metrics.md).</p>")
     for table in record.get("tables", []):
         parts.append(f"<h2>{html.escape(table['title'])}</h2>")
-        parts.append(_table(table["header"], table["rows"]))
+        parts.append(_table(table["header"], table["rows"], table.get("formats")))
+        if table.get("note"):
+            parts.append(f'<p class="note">{html.escape(table["note"])}</p>')
+    if record.get("autofocus"):
+        parts.extend(_autofocus(folder, record))
     if record.get("interferometry"):
         parts.extend(_interferometry(folder, record))
     general = [entry for entry in record.get("figures", []) if not entry.get("section")]
@@ -301,13 +503,14 @@ def build_report(folder: str | Path, overwrite: bool = True) -> Path:
     steps = record.get("steps", {})
     if steps:
         parts.append("<h2>Timings</h2>")
-        parts.append(_table(["step", "seconds"], [[k, float(v)] for k, v in steps.items()]))
+        parts.append(_table(["step", "wall time [s]"],
+                            [[k, float(v)] for k, v in steps.items()]))
     parts.append("<h2>Products</h2><ul>" + "".join(
         f"<li>{html.escape(p)}</li>" for p in record.get("products", [])) + "</ul>")
-    parts.append("<h2>Configuration</h2><pre>"
-                 + html.escape(json.dumps(record.get("experiment", {}), indent=2)) + "</pre>")
-    parts.append("<h2>Provenance</h2><pre>"
-                 + html.escape(json.dumps(record.get("provenance", {}), indent=2)) + "</pre>")
+    parts.extend(_configuration(record))
+    parts.extend(_provenance(record.get("provenance", {})))
+    parts.append('<p id="render-check" data-loaded="0" data-failed="-1">Page check: figures '
+                 "not checked (the page's script did not run)</p>")
     page = ("<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\">"
             f"<title>{title}</title><style>{_STYLE}</style><script>{_CHECK}</script></head>"
             f"<body>{''.join(parts)}</body></html>")

@@ -40,6 +40,7 @@ of an uninterrupted one, bit for bit (docs/reliability.md §5).
 from __future__ import annotations
 
 import dataclasses
+import math
 import sys
 import time
 from collections.abc import Sequence
@@ -88,7 +89,7 @@ from mitsar.report.pipeline import PipelineFiles, PipelineResult, RunFolder, run
 from mitsar.report.preview import scene_or_stand_in
 from mitsar.scene import load_scene
 
-__all__ = ["run_experiment"]
+__all__ = ["paper_comparison", "run_experiment", "scene_label"]
 
 
 def run_title(experiment: Experiment) -> str:
@@ -231,6 +232,9 @@ def _experiment(run: RunFolder, experiment: Experiment, algorithms: Sequence[str
     result = run_pipeline(run, experiment, chosen, scene=scene, progress=progress,
                           after_simulation=lambda raw: _acquisition_figures(run, experiment,
                                                                             raw, scene))
+    comparison = paper_comparison(result.metrics, experiment.background)
+    if comparison is not None:
+        run.record["tables"].append(comparison)
     if experiment.radar.channel_count >= 2:
         _interferometry(run, experiment, result, progress)
     # 4. Monte Carlo
@@ -344,7 +348,8 @@ def _mapping(run: RunFolder, experiment: Experiment, raws: Sequence[Any], scene:
                  "docs/features.md)",
         "header": ["score", "value", "units", "meaning"],
         "rows": [[name, round(value, 4), units, meaning]
-                 for name, value, units, meaning in summary["scores"]]})
+                 for name, value, units, meaning in summary["scores"]],
+        "formats": [None, ".4g"]})  # one quantity per row
     if summary["features"]:
         run.record["tables"].append({
             "title": "Map features of the scene (found within one resolution cell, missed, or "
@@ -502,7 +507,8 @@ def _acquisition_figures(run: RunFolder, experiment: Experiment, raw: Any,
                "rendered by Mitsuba, materials by kind; track, antenna and beam footprint at "
                "the first, middle and last sweep (a stand-in floor without a scene)")
     if scene is not None:
-        run.figure(plot_footprint(scene, raw, title=f"beam footprint: {experiment.scene}"),
+        run.figure(plot_footprint(scene, raw,
+                                  title=f"beam footprint: {scene_label(experiment)}"),
                    "footprint.png", "Beam footprint",
                    "first hits of rays inside the nominal beam at the first, middle and last "
                    "sweep, surfaces in grey (paper Figs. 12, 14)")
@@ -517,25 +523,119 @@ def _acquisition_figures(run: RunFolder, experiment: Experiment, raw: Any,
                                           "caption": "paper Figs. 6, 10, 11"})
 
 
+def scene_label(experiment: Experiment) -> str:
+    """How figures name an experiment's scene: a canned scene by its name, a scene file by its
+    path relative to the experiment file's folder when it lies below it, else by its file name
+    (never the absolute path of the machine that ran it)."""
+    scene = str(experiment.scene)
+    path = Path(scene)
+    if not path.is_absolute():
+        return scene
+    if experiment.source is not None:
+        try:
+            return str(path.relative_to(Path(experiment.source).resolve().parent))
+        except ValueError:
+            pass
+    return path.name
+
+
+_QUANTITIES = {"irw_cells": ("IRW", "cells"), "pslr_db": ("PSLR", "dB"),
+               "islr_db": ("ISLR", "dB")}
+"""Heading and unit of each measured quantity in the report's tables."""
+
+_PAPER_TABLE_NUMBER = {-20.0: 4, -10.0: 5}
+"""The paper's table of each background level [dB] (:mod:`mitsar.experiment.paper`)."""
+
+
+def _paper_number(background: Any) -> int | None:
+    level = None if background is None else background.cell_rcs_db
+    return None if paper_table(level) is None else _PAPER_TABLE_NUMBER.get(float(level))
+
+
+def paper_comparison(metrics: dict[str, Any], background: Any) -> dict[str, Any] | None:
+    """This run's impulse-response metrics beside the paper's Table 4 (a -20 dB background)
+    or 5 (-10 dB), per algorithm the paper focused with and cut (None for another background,
+    or when no such algorithm was measured).
+
+    The paper gives the mean and variance over its Monte Carlo realisations of the background
+    (Scannapieco et al. 2016, Tables 4-5, :mod:`mitsar.experiment.paper`); a run is one
+    realisation, so the table shows the paper's mean +- one standard deviation (the square root
+    of its variance) and the note counts this run's values within two of them.
+
+    Parameters
+    ----------
+    metrics : dict
+        Algorithm -> the metrics of :func:`mitsar.measure_impulse_response` (or the reason
+        it was not measured).
+    background : Background or None
+        The experiment's ``[background]``.
+
+    Returns
+    -------
+    dict or None
+        A table of the run record (``title``, ``header``, ``rows``, ``note``).
+    """
+    paper = paper_table(None if background is None else background.cell_rcs_db)
+    number = _paper_number(background)
+    if paper is None or number is None:
+        return None
+    rows, within, count = [], 0, 0
+    for algorithm, result in metrics.items():
+        if algorithm not in paper or not isinstance(result, dict) or "range" not in result:
+            continue
+        for direction in ("range", "azimuth"):
+            row: list[Any] = [f"{algorithm.upper()} {direction}"]
+            for metric, (_, unit) in _QUANTITIES.items():
+                mean, variance = paper[algorithm][direction][metric]
+                deviation = math.sqrt(variance)
+                ours = float(result[direction][metric])
+                decimals = 3 if unit == "cells" else 2
+                row += [ours, f"{mean:.{decimals}f} ± {deviation:.{decimals}f}"]
+                count += 1
+                within += abs(ours - mean) <= 2 * deviation
+            rows.append(row)
+    if not rows:
+        return None
+    header = ["algorithm, cut"]
+    for name, unit in _QUANTITIES.values():
+        header += [f"{name} [{unit}], this run", f"{name} [{unit}], paper"]
+    level = background.cell_rcs_db
+    return {"title": f"Comparison with the paper's Table {number} (point target on a "
+                     f"{level:g} dB background)",
+            "header": header, "rows": rows,
+            "note": f"This run is one realisation of the background; the paper's values are "
+                    f"the mean ± one standard deviation (square root of the variance) over its "
+                    f"Monte Carlo realisations (Scannapieco et al. 2016, Table {number}). "
+                    f"{within} of {count} values of this run lie within two standard "
+                    "deviations of the paper's mean. 'mitsar run -n N' compares means over N "
+                    "realisations."}
+
+
 def _montecarlo_table(summary: Any, realisations: int, background: Any) -> dict[str, Any]:
     """Mean and variance per algorithm, cut and metric; the paper's Table 4 or 5 rows below
     ours for a -20 or -10 dB background (:mod:`mitsar.experiment.paper`)."""
     paper = paper_table(None if background is None else background.cell_rcs_db)
+    number = _paper_number(background)
     rows = []
     for source in ("mitsar", "paper"):
         for algorithm in summary["algorithm"].values:
             for direction in summary["direction"].values:
-                row = [f"{source}: {algorithm} {direction}"]
+                label = "mitsar" if source == "mitsar" else f"paper Table {number}"
+                row = [f"{label}: {str(algorithm).upper()} {direction}"]
                 for metric in summary["metric"].values:
                     if source == "mitsar":
                         row += [float(summary[k].sel(algorithm=algorithm, direction=direction,
                                                      metric=metric)) for k in ("mean",
                                                                               "variance")]
                     elif paper is not None and str(algorithm) in paper:
-                        row += list(paper[str(algorithm)][str(direction)][str(metric)])
+                        row += [float(v) for v in
+                                paper[str(algorithm)][str(direction)][str(metric)]]
                 if len(row) > 1:
                     rows.append(row)
-    header = ["source: algorithm, cut"] + [f"{m} {s}" for m in summary["metric"].values
-                                           for s in ("mean", "variance")]
-    return {"title": f"Monte Carlo over {realisations} background realisations "
-            "(paper Tables 4-5 below ours where they apply)", "header": header, "rows": rows}
+    header = ["source: algorithm, cut"]
+    for metric in summary["metric"].values:
+        name, unit = _QUANTITIES.get(str(metric), (str(metric), ""))
+        header += [f"{name} mean [{unit}]", f"{name} variance [{unit}²]"]
+    return {"title": f"Monte Carlo over {realisations} background realisations"
+            + (f" (the paper's Table {number} below ours)" if number is not None else ""),
+            "header": header, "rows": rows}

@@ -1,0 +1,198 @@
+"""``report.html`` read as a newcomer reads it (issue 26 item 5): one precision per column,
+messages that span a row, the configuration in TOML (non-ASCII kept) folded away, the
+autofocus results in their own table, the page check at the bottom, the paper's Table 4 beside
+a plain run. The pages are built from small run records written here (no simulation), and
+parsed with the standard library's HTML parser."""
+
+from __future__ import annotations
+
+import base64
+import html
+import json
+import re
+import tomllib
+from html.parser import HTMLParser
+from types import SimpleNamespace
+
+import pytest
+
+from mitsar.experiment.paper import PAPER_TABLES
+from mitsar.report.html import RUN_RECORD, build_report, toml_text
+from mitsar.report.run import paper_comparison, scene_label
+
+# A 1 x 1 PNG (the smallest figure a page can embed).
+PNG = base64.b64decode("iVBORw0KGgoAAAANSUhEUgAAAAEAAAABCAYAAAAfFcSJAAAADUlEQVR42mP8z8BQ"
+                       "DwAEhQGAhKmMIQAAAABJRU5ErkJggg==")
+
+
+class Page(HTMLParser):
+    """The tables (with each cell's text and attributes), the headings and the order of the
+    elements of a page."""
+
+    def __init__(self, text: str) -> None:
+        super().__init__()
+        self.tables: list[list[list[tuple[str, dict]]]] = []
+        self.order: list[tuple[str, dict]] = []
+        self.text: dict[int, str] = {}
+        self._cell: list[str] | None = None
+        self._stack: list[int] = []
+        self.feed(text)
+
+    def handle_starttag(self, tag, attrs):
+        attrs = dict(attrs)
+        self.order.append((tag, attrs))
+        self._stack.append(len(self.order) - 1)
+        if tag == "table":
+            self.tables.append([])
+        elif tag == "tr":
+            self.tables[-1].append([])
+        elif tag in ("td", "th"):
+            self._cell = []
+            self.tables[-1][-1].append(("", attrs))
+
+    def handle_endtag(self, tag):
+        if tag in ("td", "th") and self._cell is not None:
+            text, attrs = self.tables[-1][-1][-1]
+            self.tables[-1][-1][-1] = ("".join(self._cell).strip(), attrs)
+            self._cell = None
+
+    def handle_data(self, data):
+        if self._cell is not None:
+            self._cell.append(data)
+        if self._stack:
+            index = self._stack[-1]
+            self.text[index] = self.text.get(index, "") + data
+
+    def table_after(self, heading: str) -> list[list[tuple[str, dict]]]:
+        """The first table after the heading ``heading``."""
+        names = [self.text.get(i, "").strip() for i in range(len(self.order))]
+        start = next(i for i, (tag, _) in enumerate(self.order)
+                     if tag == "h2" and names[i].startswith(heading))
+        count = sum(1 for tag, _ in self.order[:start] if tag == "table")
+        return self.tables[count]
+
+
+def _metrics(irw: float, pslr: float) -> dict:
+    cut = {"irw_cells": irw, "irw_m": 0.1 * irw, "pslr_db": pslr, "islr_db": pslr + 3.0}
+    return {"range": dict(cut), "azimuth": dict(cut), "peak_offset_m": 0.0013763,
+            "peak_index": [0, 0]}
+
+
+def _page(tmp_path, **record) -> tuple[Page, str]:
+    base = {"title": "t", "steps": {"simulate": 1.23456}, "products": ["raw.nc"],
+            "figures": [], "metrics": {}, "tables": [], "warnings": []}
+    base.update(record)
+    for entry in base["figures"]:
+        (tmp_path / entry["file"]).write_bytes(PNG)
+    (tmp_path / RUN_RECORD).write_text(json.dumps(base))
+    text = build_report(tmp_path).read_text(encoding="utf-8")
+    return Page(text), text
+
+
+def _decimals(text: str) -> int:
+    return len(text.split(".")[1]) if "." in text else 0
+
+
+def test_one_precision_per_column_and_messages_span_the_row(tmp_path):
+    """0.892 and 0.8951 were side by side, and a peak offset of 0.001376 m: now each column
+    has one format (IRW to 0.001 cells, dB to 0.01, the offset in mm), and a metrics failure is
+    one wrapped cell spanning the row, not text squeezed into the first number's cell."""
+    edge = ("target too close to the image edge: the measurement needs 8.0 cells around the "
+            "peak, found 4.99 cells")
+    page, _ = _page(tmp_path, metrics={"bpa": _metrics(0.892, -13.0), "wda": _metrics(0.8951,
+                                                                                   -12.6148),
+                                       "rda": edge},
+                    tables=[{"title": "mixed", "header": ["name", "value"],
+                             "rows": [["a", 0.5], ["b", 12.25], ["c", 0.0625]]}])
+    table = page.table_after("Image quality")
+    header = [text for text, _ in table[0]]
+    assert header[-1] == "peak offset [mm]"
+    rows = {row[0][0]: row for row in table[1:]}
+    for column in range(1, len(header)):
+        places = {_decimals(rows[name][column][0]) for name in ("bpa", "wda")}
+        assert len(places) == 1, (header[column], [rows[n][column][0] for n in rows])
+    assert rows["bpa"][1][0] == "0.892" and rows["wda"][1][0] == "0.895"
+    assert rows["wda"][2][0] == "-12.61" and rows["bpa"][-1][0] == "1.4"
+    message = rows["rda"]
+    assert len(message) == 2 and message[1][1]["colspan"] == str(len(header) - 1)
+    assert message[1][1]["class"] == "message" and "4.99 cells" in message[1][0]
+    mixed = page.table_after("mixed")
+    assert {_decimals(row[1][0]) for row in mixed[1:]} == {2}  # 4 digits for the largest
+    assert page.table_after("Timings")[1][1][0] == "1.23"
+
+
+def test_configuration_is_folded_toml_with_its_own_characters(tmp_path):
+    experiment = {"name": "x", "description": "paper §4.1, 94 GHz → 3.2 mm",
+                  "radar": {"bandwidth": 1.5e9, "prf": 250.0, "antenna_width": 0.01},
+                  "targets": [{"position": [15.0, 8.0, 0.0], "rcs": 1.0},
+                              {"position": [15.5, 8.0, 0.0], "rcs": 0.5}],
+                  "focus": {"algorithm": "bpa", "autofocus": None,
+                            "grid": {"kind": "slant", "along_track": [-0.4, 0.8, 0.01]}},
+                  "metrics": {"target": [15.0, 8.0, 0.0], "islr_extent": "paper"}}
+    page, text = _page(tmp_path, experiment=experiment, source="/somewhere/x.toml")
+    assert "\\u00a7" not in text and "§4.1" in text and "→" in text
+    details = [attrs for tag, attrs in page.order if tag == "details"]
+    assert details and details[0]["id"] == "configuration" and "open" not in details[0]
+    shown = re.search(r'<details id="configuration">.*?<pre>(.*?)</pre>', text, re.S).group(1)
+    parsed = tomllib.loads(html.unescape(shown))
+    expected = json.loads(json.dumps(experiment))
+    del expected["focus"]["autofocus"]  # not set: the default applies, TOML has no null
+    assert parsed == expected
+    assert "[focus.grid]" in shown and shown.count("[[targets]]") == 2
+    assert tomllib.loads("\n".join(toml_text({"a": 1e-7, "b": 94e9})))["a"] == 1e-7
+
+
+def test_page_check_sits_at_the_bottom_and_autofocus_has_its_table(tmp_path):
+    autofocus = {"method": "pga", "iterations": 7, "converged": False, "scatterers": 12,
+                 "entropy_before": 9.87654, "entropy_after": 9.5, "applied": True,
+                 "seconds": 0.4321,
+                 "warning": "autofocus 'pga' did not converge: the last update was 0.02 rad"}
+    figures = [{"file": "image_bpa.png", "title": "Image, BPA"},
+               {"file": "autofocus_bpa.png", "title": "Autofocus phase, BPA",
+                "section": "Autofocus"}]
+    page, text = _page(tmp_path, autofocus={"bpa": autofocus}, figures=figures)
+    tags = [tag for tag, _ in page.order]
+    check = next(i for i, (_, attrs) in enumerate(page.order)
+                 if attrs.get("id") == "render-check")
+    assert check > max(i for i, tag in enumerate(tags) if tag in ("h2", "table", "figure"))
+    table = page.table_after("Autofocus")
+    header = [cell for cell, _ in table[0]]
+    row = dict(zip(header, [cell for cell, _ in table[1]], strict=True))
+    assert row["method"] == "pga" and row["iterations"] == "7" and row["converged"] == "no"
+    assert row["entropy before [nats]"] == "9.8765" and row["applied"] == "yes"
+    assert row["time [s]"] == "0.43"
+    assert table[2][1][1]["class"] == "message" and "did not converge" in table[2][1][0]
+    autofocus_at = text.index("<h2>Autofocus</h2>")
+    assert autofocus_at < text.index('alt="autofocus_bpa.png"') < text.index("<h2>Figures</h2>")
+    assert text.count("<figure>") == 2
+
+
+def test_paper_table_beside_a_plain_run():
+    """A run on the paper's -20 dB background shows Table 4 beside its own values (mean +-
+    sqrt(variance)); another background or an algorithm the paper did not use shows none."""
+    background = SimpleNamespace(cell_rcs_db=-20.0)
+    paper = PAPER_TABLES[-20.0]["bpa"]
+    mean, variance = paper["azimuth"]["islr_db"]
+    far = _metrics(0.87, -13.0)
+    far["azimuth"]["islr_db"] = mean + 2.5 * variance ** 0.5  # outside two deviations
+    table = paper_comparison({"bpa": far, "ffbp": _metrics(0.9, -13.0), "wda": "edge"},
+                             background)
+    assert "Table 4" in table["title"] and [r[0] for r in table["rows"]] == ["BPA range",
+                                                                          "BPA azimuth"]
+    header = table["header"]
+    azimuth = dict(zip(header, table["rows"][1], strict=True))
+    assert azimuth["ISLR [dB], paper"] == f"{mean:.2f} ± {variance ** 0.5:.2f}"
+    assert azimuth["IRW [cells], this run"] == 0.87
+    assert "5 of 6 values" in table["note"]
+    assert "Table 5" in paper_comparison({"bpa": far}, SimpleNamespace(cell_rcs_db=-10.0))[
+        "title"]
+    assert paper_comparison({"bpa": far}, SimpleNamespace(cell_rcs_db=-15.0)) is None
+    assert paper_comparison({"bpa": far}, None) is None
+
+
+@pytest.mark.parametrize(("scene", "expected"), [("dihedral", "dihedral"),
+                                                 ("/data/exp/scenes/room.xml", "scenes/room.xml"),
+                                                 ("/elsewhere/room.xml", "room.xml")])
+def test_scene_label_is_never_an_absolute_path(scene, expected, tmp_path):
+    experiment = SimpleNamespace(scene=scene, source="/data/exp/run.toml")
+    assert scene_label(experiment) == expected
