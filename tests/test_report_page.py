@@ -196,3 +196,61 @@ def test_paper_table_beside_a_plain_run():
 def test_scene_label_is_never_an_absolute_path(scene, expected, tmp_path):
     experiment = SimpleNamespace(scene=scene, source="/data/exp/run.toml")
     assert scene_label(experiment) == expected
+
+
+AUTOFOCUS_EXPERIMENT = """
+name = "autofocus-tiny"
+[radar]
+[trajectory]
+kind = "linear"
+start = [14.8, 1.4, 4.5]
+velocity = [0.5, 0.0, 0.0]
+duration = 0.6
+[trajectory.errors]
+seed = 11
+position_random_walk = [0.0, 2e-3, 1e-3]
+[look]
+off_nadir_deg = 55.71
+[[targets]]
+position = [15.0, 8.0, 0.0]
+rcs = 1.0
+[simulation]
+seed = 7
+normalized = true
+[focus]
+algorithm = "bpa"
+azimuth_resolution = 0.1
+autofocus = "pga"
+[focus.grid]
+kind = "slant"
+along_track = [-0.1, 0.5, 0.02]
+slant_range = [7.69, 8.29, 0.02]
+[metrics]
+target = [15.0, 8.0, 0.0]
+islr_extent = 2
+"""
+
+
+@pytest.mark.slow  # about 10 s: a simulation, BPA and PGA
+def test_an_autofocused_run_reports_its_autofocus(tmp_path):
+    """A run with navigation errors and PGA: the autofocus results in the record and in their
+    own table (they were only in the configuration dump), the estimated phase per sweep as a
+    figure of that section, and no Table 4 (no background)."""
+    from mitsar.report.run import run_experiment
+
+    source = tmp_path / "autofocus.toml"
+    source.write_text(AUTOFOCUS_EXPERIMENT)
+    report = run_experiment(source, tmp_path / "run")
+    record = json.loads((tmp_path / "run" / RUN_RECORD).read_text())
+    entry = record["autofocus"]["bpa"]
+    assert entry["method"] == "pga" and isinstance(entry["applied"], bool)
+    assert entry["iterations"] >= 1 and entry["entropy_after"] > 0
+    figure = next(f for f in record["figures"] if f.get("section") == "Autofocus")
+    assert figure["file"] == "autofocus_bpa.png"
+    assert (tmp_path / "run" / figure["file"]).stat().st_size > 10_000
+    assert not any(t["title"].startswith("Comparison") for t in record["tables"])
+    text = report.read_text(encoding="utf-8")
+    page = Page(text)
+    row = page.table_after("Autofocus")[1]
+    assert [cell for cell, _ in row[:2]] == ["bpa", "pga"]
+    assert text.index("<h2>Autofocus</h2>") < text.index('alt="autofocus_bpa.png"')

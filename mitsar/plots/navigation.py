@@ -6,7 +6,10 @@
   across and up against time;
 * :func:`plot_phase` — the injected phase against an autofocus estimate (the image's
   ``autofocus_phase``), both with their mean and linear trend removed (a constant is invisible,
-  a trend only shifts the image).
+  a trend only shifts the image);
+* :func:`plot_autofocus_phase` — an autofocused image's estimate per sweep, against the
+  injected phase at its metrics target when the raw product knows the true track (the
+  report's autofocus figure).
 """
 
 from __future__ import annotations
@@ -20,8 +23,10 @@ from numpy.typing import ArrayLike, NDArray
 from mitsar.errors import ParameterError
 from mitsar.plots import figures  # noqa: F401 - selects the Agg backend first
 from mitsar.products.raw import radar_of
+from mitsar.products.requests import metrics_request
 
-__all__ = ["detrend", "navigation_phase", "plot_phase", "plot_tracks"]
+__all__ = ["detrend", "navigation_phase", "plot_autofocus_phase", "plot_phase",
+           "plot_tracks"]
 
 
 def _require_truth(raw: xr.Dataset, where: str) -> None:
@@ -95,4 +100,53 @@ def plot_phase(raw: xr.Dataset, point: ArrayLike, estimates: dict[str, ArrayLike
     ax.set(xlabel="slow time [s]", ylabel="phase, trend removed [rad]",
            title="phase error: injected and estimated")
     ax.legend()
+    return ax
+
+
+def plot_autofocus_phase(raw: xr.Dataset, image: xr.Dataset, ax: Axes | None = None) -> Axes:
+    """An autofocused image's estimated phase error per sweep [rad] against slow time [s].
+
+    With the true track in ``raw`` (a simulation with navigation errors) and a metrics target
+    in the image (:func:`mitsar.products.requests.metrics_request`), the injected phase at the
+    target is drawn too (:func:`plot_phase`, both detrended); otherwise the estimate alone,
+    detrended likewise (its mean and linear trend only shift the image). The title names the
+    method and whether the correction was applied (``autofocus_applied``).
+
+    Parameters
+    ----------
+    raw : xarray.Dataset
+        The raw product the image was focused from (its ``slow_time``).
+    image : xarray.Dataset
+        An image with ``autofocus_phase`` (sweep) [rad]
+        (:func:`mitsar.focus.autofocus.driver.run_autofocus`).
+    ax : matplotlib Axes, optional
+
+    Returns
+    -------
+    Axes
+
+    Raises
+    ------
+    ParameterError
+        If the image has no ``autofocus_phase``.
+    """
+    if "autofocus_phase" not in image.variables:
+        raise ParameterError("plot_autofocus_phase", "image", "an autofocused image (variable "
+                             "autofocus_phase)", sorted(image.data_vars))
+    if ax is None:
+        _, ax = plt.subplots(figsize=(7.0, 4.0), layout="constrained")
+    method = str(image.attrs.get("autofocus_method", "autofocus"))
+    estimate = np.asarray(image["autofocus_phase"].values, dtype=float)
+    target = metrics_request(image)[0]
+    if "true_platform_position" in raw.variables and target is not None:
+        plot_phase(raw, target, {f"{method.upper()} estimate": estimate}, ax=ax)
+    else:
+        ax.plot(raw["slow_time"].values, detrend(estimate), "--",
+                label=f"{method.upper()} estimate")
+        ax.set(xlabel="slow time [s]", ylabel="phase, trend removed [rad]")
+        ax.legend()
+    applied = bool(image.attrs.get("autofocus_applied", 1))
+    ax.set_title(f"{method.upper()}: estimated phase error per sweep"
+                 + ("" if applied else " (not applied: it made the image worse)"))
+    ax.grid(True, alpha=0.3)
     return ax

@@ -36,6 +36,7 @@ from mitsar.plots.figures import (
     target_marks,
 )
 from mitsar.plots.footprint import scene_range_marks
+from mitsar.plots.navigation import plot_autofocus_phase
 from mitsar.products.requests import metrics_request
 
 __all__ = ["PipelineFiles", "PipelineResult", "RunFolder", "run_pipeline"]
@@ -97,12 +98,17 @@ class RunFolder:
         """Record the wall time [s] of step ``name`` started at ``start``."""
         self.record["steps"][name] = round(time.perf_counter() - start, 3)
 
-    def figure(self, figure: Any, file: str, title: str, caption: str = "") -> None:
-        """Save a figure (110 dpi) and list it in the record."""
+    def figure(self, figure: Any, file: str, title: str, caption: str = "",
+               section: str | None = None) -> None:
+        """Save a figure (110 dpi) and list it in the record (shown in the report's
+        ``section``, e.g. "Autofocus", instead of "Figures" when given)."""
         start = time.perf_counter()
         save_figure(figure, self.out / file, overwrite=self.overwrite, dpi=110)
         plt.close(figure)
-        self.record["figures"].append({"file": str(file), "title": title, "caption": caption})
+        entry = {"file": str(file), "title": title, "caption": caption}
+        if section:
+            entry["section"] = section
+        self.record["figures"].append(entry)
         self.plot_seconds += time.perf_counter() - start
 
     def product(self, data: Any, file: str) -> None:
@@ -125,6 +131,7 @@ class PipelineFiles:
     image: str = "image_{algorithm}.nc"
     image_figure: str = "image_{algorithm}.png"
     cuts_figure: str = "cuts_{algorithm}.png"
+    autofocus_figure: str = "autofocus_{algorithm}.png"
 
 
 @dataclass
@@ -246,6 +253,8 @@ def _focus_and_measure(run: RunFolder, experiment: Experiment, result: PipelineR
     result.images[algorithm] = image
     if image.attrs.get("autofocus_warning"):  # a failed or degrading autofocus, in the report
         run.warn(f"{algorithm}: {image.attrs['autofocus_warning']}")
+    if "autofocus_phase" in image.variables:
+        _autofocus(run, result.raw, image, algorithm, files)
     figure, ax = plt.subplots(figsize=(7, 6), layout="constrained")
     marks = (beam_range_marks(image) if scene is None
              else scene_range_marks(image, result.raw, scene))
@@ -274,3 +283,35 @@ def _focus_and_measure(run: RunFolder, experiment: Experiment, result: PipelineR
     run.figure(axes[0].figure, files.cuts_figure.format(algorithm=algorithm),
                f"Cuts, {algorithm.upper()}",
                "range and azimuth cuts through the peak, IRW / PSLR / ISLR in the legends")
+
+
+AUTOFOCUS_RECORD = ("method", "iterations", "converged", "scatterers", "entropy_before",
+                    "entropy_after", "applied", "seconds", "warning")
+"""Attributes ``autofocus_<key>`` of an autofocused image recorded in ``record["autofocus"]``
+(:func:`mitsar.focus.autofocus.driver.run_autofocus`)."""
+
+
+def _autofocus(run: RunFolder, raw: xr.Dataset, image: xr.Dataset, algorithm: str,
+               files: PipelineFiles) -> None:
+    """Record an autofocused image's results (``record["autofocus"][algorithm]``, the report's
+    autofocus table) and draw its estimated phase error per sweep (against the injected one
+    when the raw product knows the true track)."""
+    entry: dict[str, Any] = {}
+    for key in AUTOFOCUS_RECORD:
+        value = image.attrs.get(f"autofocus_{key}")
+        if value is None:
+            continue
+        if key in ("converged", "applied"):
+            value = bool(value)
+        elif hasattr(value, "item"):  # a NumPy scalar read back from netCDF
+            value = value.item()
+        entry[key] = value
+    run.record.setdefault("autofocus", {})[algorithm] = entry
+    method = str(entry.get("method", "autofocus"))
+    ax = plot_autofocus_phase(raw, image)
+    run.figure(ax.figure, files.autofocus_figure.format(algorithm=algorithm),
+               f"Autofocus phase, {algorithm.upper()}",
+               f"{method.upper()} estimate of the phase error per sweep (mean and linear trend "
+               "removed: they only shift the image), against the phase the navigation error "
+               "puts on the metrics target when the raw product knows the true track; "
+               "docs/autofocus.md", section="Autofocus")

@@ -272,7 +272,8 @@ def pass_files(index: int) -> PipelineFiles:
                          background_figure=f"background_pass{index}.png",
                          image=f"image_{{algorithm}}_pass{index}.nc",
                          image_figure=f"image_{{algorithm}}_pass{index}.png",
-                         cuts_figure=f"cuts_{{algorithm}}_pass{index}.png")
+                         cuts_figure=f"cuts_{{algorithm}}_pass{index}.png",
+                         autofocus_figure=f"autofocus_{{algorithm}}_pass{index}.png")
 
 
 def _passes(run: RunFolder, experiment: Experiment, algorithms: Sequence[str], scene: Any,
@@ -427,6 +428,9 @@ def _name_by_pass(run: RunFolder, index: int, algorithms: Sequence[str],
     for algorithm in algorithms:
         if algorithm in run.record["metrics"]:
             run.record["metrics"][f"{algorithm} {label}"] = run.record["metrics"].pop(algorithm)
+        if algorithm in run.record.get("autofocus", {}):
+            run.record["autofocus"][f"{algorithm} {label}"] = run.record["autofocus"].pop(
+                algorithm)
         for step in (f"focus {algorithm}", f"metrics {algorithm}"):
             if step in run.record["steps"]:
                 run.record["steps"][f"{step} {label}"] = run.record["steps"].pop(step)
