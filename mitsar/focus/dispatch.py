@@ -226,6 +226,15 @@ def focus(raw: xr.Dataset | Sequence[xr.Dataset], algorithm: str = "bpa",
     shape = layout["position"].shape[:-1]  # the grid's dims: two, or three for a volume
     image = make_image_product(raw, np.reshape(values, shape), layout, {**processing, **extra},
                                coverage=np.reshape(coverage, shape))
+    if "channel" not in raw.attrs:  # the aperture the image was formed from, for SICD
+        # (mitsar.export.sicd; a multi-channel image gets the pass's from focus.channels)
+        image["aperture_time"] = ("aperture", raw["slow_time"].values
+                                  + radar.sweep_duration / 2, {"units": "s"})
+        for name in ("platform_position", "platform_velocity", "boresight", "attitude"):
+            if name in raw.variables:
+                image[f"aperture_{name.removeprefix('platform_')}"] = (
+                    ("aperture", raw[name].dims[-1]), raw[name].values, raw[name].attrs)
+        image.attrs["raw_normalized"] = int(raw.attrs.get("normalized", 0))
     if algorithm == "bpa" and "reference_range" not in raw.variables:  # docs/metrics.md §Noise
         noise = noise_variables(raw, layout["position"].reshape(-1, 3), np.ravel(coverage),
                                 half_width, window, range_window)
