@@ -7,15 +7,20 @@ chirp rate ``K = B/T``, fast time centred on the sweep.
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
-from dataclasses import dataclass
-from typing import Any
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from mitsar.checks import KnownFields, finite, is_real, positive
 from mitsar.errors import ParameterError
+from mitsar.model.elements import Element, ElementBeam, element_beam
+
+if TYPE_CHECKING:
+    from mitsar.model.geometry.attitude import Look
 
 SPEED_OF_LIGHT = 299_792_458.0
 """Speed of light in vacuum [m/s]."""
@@ -73,16 +78,21 @@ class Radar(metaclass=KnownFields):
     azimuth_beamwidth_deg, elevation_beamwidth_deg : float or None
         Beamwidths [deg]; by default ``lambda / l_AZ`` and ``lambda / d`` (paper Table 1:
         9 deg and 18 deg).
-    receivers : sequence of 3-vectors or None
+    receivers : sequence of 3-vectors, dicts or Elements, or None
         Receive phase centres in the body frame [m] (x forward, y left, z up at zero
         attitude; :func:`mitsar.model.geometry.attitude.body_to_world`), one receive channel
         each; ``None``: one monostatic channel at the origin (the products then have no
-        ``channel`` dimension). docs/interferometry.md.
-    transmitters : sequence of 3-vectors or None
-        Transmit phase centres in the body frame [m]; ``None``: one at the origin. With one
-        transmitter every receiver listens to it (single-pass interferometer); with
-        ``ping_pong`` each receiver's own phase centre transmits. Several transmitters take
-        turns sweep by sweep (TDM-MIMO: :attr:`is_tdm`), giving N_tx x N_rx channels.
+        ``channel`` dimension). docs/interferometry.md. An item is a position, an
+        :class:`~mitsar.model.elements.Element` or a dict of its fields
+        (``{"position": ..., "elevation_beamwidth_deg": ..., "off_nadir_deg": ...}``): an
+        element with its own pattern and boresight. The field then holds the positions
+        (3-tuples) and :attr:`receiver_elements` the elements.
+    transmitters : sequence of 3-vectors, dicts or Elements, or None
+        Transmit phase centres in the body frame [m] (items as ``receivers``); ``None``: one
+        at the origin. With one transmitter every receiver listens to it (single-pass
+        interferometer); with ``ping_pong`` each receiver's own element transmits. Several
+        transmitters take turns sweep by sweep (TDM-MIMO: :attr:`is_tdm`), giving
+        N_tx x N_rx channels.
     ping_pong : bool
         Each channel transmits and receives on its own phase centre (the interferometric
         phase doubles: docs/interferometry.md).
@@ -108,6 +118,12 @@ class Radar(metaclass=KnownFields):
     receivers: tuple[tuple[float, float, float], ...] | None = None
     transmitters: tuple[tuple[float, float, float], ...] | None = None
     ping_pong: bool = False
+    receiver_elements: tuple[Element, ...] | None = field(default=None, init=False,
+                                                          repr=False)
+    """The receive elements (position, own pattern and boresight), or None."""
+    transmitter_elements: tuple[Element, ...] | None = field(default=None, init=False,
+                                                             repr=False)
+    """The transmit elements, or None."""
 
     def __post_init__(self) -> None:
         self._check_phase_centres()
@@ -150,25 +166,29 @@ class Radar(metaclass=KnownFields):
                 "max_range", self.max_range)
 
     def _check_phase_centres(self) -> None:
-        """Normalise ``receivers``/``transmitters`` to tuples of float 3-tuples, or refuse."""
+        """Normalise ``receivers``/``transmitters`` to tuples of float 3-tuples (and their
+        :class:`Element` records to ``*_elements``), or refuse."""
         for name in ("receivers", "transmitters"):
             value = getattr(self, name)
             if value is None:
                 continue
             expected = (f"None or a non-empty list of body-frame 3-vectors [m] with |x| <= "
-                        f"{MAX_PHASE_CENTRE_OFFSET:g} m, e.g. [(0, 0, 0), (0, 0, 0.05)]")
-            try:
-                rows = tuple(tuple(float(v) for v in row) for row in value)
-            except (TypeError, ValueError):
-                raise ParameterError("Radar", name, expected, value) from None
-            if not rows or any(len(row) != 3 or not all(math.isfinite(v)
-                                                        and abs(v) <= MAX_PHASE_CENTRE_OFFSET
-                                                        for v in row) for row in rows):
+                        f"{MAX_PHASE_CENTRE_OFFSET:g} m (or Elements / dicts with a "
+                        "'position'), e.g. [(0, 0, 0), (0, 0, 0.05)]")
+            if isinstance(value, str | bytes | dict | Element):
                 raise ParameterError("Radar", name, expected, value)
-            if len(rows) > MAX_CHANNELS:
+            try:
+                items = list(value)
+            except TypeError:
+                raise ParameterError("Radar", name, expected, value) from None
+            if not items:
+                raise ParameterError("Radar", name, expected, value)
+            if len(items) > MAX_CHANNELS:
                 raise ParameterError("Radar", name, f"at most {MAX_CHANNELS} phase centres",
-                                     len(rows))
-            object.__setattr__(self, name, rows)
+                                     len(items))
+            elements = tuple(Element.of(item, f"{name}[{i}]") for i, item in enumerate(items))
+            object.__setattr__(self, name, tuple(e.position for e in elements))
+            object.__setattr__(self, f"{name[:-1]}_elements", elements)
         if not isinstance(self.ping_pong, bool):
             raise ParameterError("Radar", "ping_pong", "true or false", self.ping_pong)
         if self.ping_pong and self.transmitters is not None:
@@ -243,6 +263,46 @@ class Radar(metaclass=KnownFields):
         pairs = self.channel_pairs()
         return (tuple(transmitters[i] for i, _ in pairs),
                 tuple(receivers[j] for _, j in pairs))
+
+    def channel_elements(self) -> tuple[tuple[Element, ...], tuple[Element, ...]]:
+        """(transmit, receive) :class:`~mitsar.model.elements.Element` of each channel, as
+        :meth:`channel_offsets` (ping-pong: the receiver's element transmits too; a radar
+        without declared phase centres: the radar's own antenna at the origin)."""
+        origin = (Element(),)
+        receivers = self.receiver_elements or origin
+        if self.ping_pong:
+            return receivers, receivers
+        transmitters = self.transmitter_elements or origin
+        pairs = self.channel_pairs()
+        return (tuple(transmitters[i] for i, _ in pairs),
+                tuple(receivers[j] for _, j in pairs))
+
+    @property
+    def has_element_beams(self) -> bool:
+        """Whether some element declares its own pattern or boresight (docs/interferometry.md
+        §8); otherwise every phase centre uses the radar's antenna and the look's boresight."""
+        return any(e.has_own_beam for e in (self.receiver_elements or ())
+                   + (self.transmitter_elements or ()))
+
+    def channel_beams(self, look: Look) -> tuple[tuple[ElementBeam, ElementBeam], ...]:
+        """(transmit, receive) :class:`~mitsar.model.elements.ElementBeam` of each channel
+        with the antenna mounted by ``look``: what the kernels need for
+        :func:`mitsar.model.elements.channel_amplitude_factor`."""
+        transmitters, receivers = self.channel_elements()
+        return tuple((element_beam(t, self, look), element_beam(r, self, look))
+                     for t, r in zip(transmitters, receivers, strict=True))
+
+    def require_shared_beam(self, where: str) -> None:
+        """Refuse elements with their own pattern or boresight in a producer that models the
+        radar's one antenna only (names the first such element)."""
+        for name in ("receiver_elements", "transmitter_elements"):
+            for i, element in enumerate(getattr(self, name) or ()):
+                if element.has_own_beam:
+                    raise ParameterError(
+                        where, f"radar.{name[:-9]}s[{i}]", "an element without its own pattern "
+                        "or boresight (this producer gives every phase centre the radar's "
+                        "antenna; per-element beams are modelled by simulate_point_targets: "
+                        "docs/interferometry.md §8)", element)
 
     def virtual_phase_centres(self) -> NDArray[np.float64]:
         """Far-field virtual array element of each channel, ``t_i + r_j`` (body frame) [m].
@@ -380,11 +440,17 @@ class Radar(metaclass=KnownFields):
     # --- serialisation --------------------------------------------------------------------
     def to_attrs(self) -> dict[str, Any]:
         """Parameters as a flat dict of ``radar_<name>`` attributes (None and a false
-        ``ping_pong`` dropped; phase centres as flat lists of 3k floats, ``ping_pong`` as 1)."""
+        ``ping_pong`` dropped; phase centres as flat lists of 3k floats, ``ping_pong`` as 1;
+        elements with their own beam as ``radar_receiver_elements`` /
+        ``radar_transmitter_elements``, JSON lists of :meth:`Element.to_dict`, only then)."""
         attrs: dict[str, Any] = {}
         for f in dataclasses.fields(self):
             value = getattr(self, f.name)
             if value is None or value is False:
+                continue
+            if f.name in _ELEMENTS:
+                if any(e.has_own_beam for e in value):
+                    attrs[f"radar_{f.name}"] = json.dumps([e.to_dict() for e in value])
                 continue
             if f.name in _PHASE_CENTRES:
                 value = [float(v) for row in value for v in row]
@@ -397,9 +463,13 @@ class Radar(metaclass=KnownFields):
         kwargs: dict[str, Any] = {}
         for f in dataclasses.fields(cls):
             key = f"radar_{f.name}"
-            if key not in attrs:
+            if key not in attrs or not f.init:
                 continue
             if f.name in _PHASE_CENTRES:
+                elements = attrs.get(f"radar_{f.name[:-1]}_elements")
+                if elements is not None:
+                    kwargs[f.name] = json.loads(str(elements))
+                    continue
                 flat = [float(v) for v in np.ravel(attrs[key])]
                 kwargs[f.name] = tuple(tuple(flat[i:i + 3]) for i in range(0, len(flat), 3))
             elif f.name == "ping_pong":
@@ -410,4 +480,5 @@ class Radar(metaclass=KnownFields):
 
 
 _PHASE_CENTRES = ("receivers", "transmitters")
+_ELEMENTS = ("receiver_elements", "transmitter_elements")
 

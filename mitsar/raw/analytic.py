@@ -10,6 +10,8 @@ since mid-sweep is the centre of the symmetric fast-time interval).
 
 from __future__ import annotations
 
+import dataclasses
+import math
 import warnings
 from collections.abc import Iterator, Sequence
 from typing import Any
@@ -25,8 +27,19 @@ from mitsar.budget import require_memory
 from mitsar.checks import integer
 from mitsar.checks import seed as check_seed
 from mitsar.errors import MitsarWarning, ParameterError
-from mitsar.model.geometry.antenna import two_way_pattern
-from mitsar.model.geometry.attitude import Look, antenna_frame, body_offset_to_world
+from mitsar.model.elements import (
+    ElementBeam,
+    channel_amplitude_factor,
+    element_beam,
+    element_frame,
+)
+from mitsar.model.geometry.antenna import direction_sines, two_way_pattern
+from mitsar.model.geometry.attitude import (
+    Look,
+    antenna_frame,
+    body_offset_to_world,
+    body_to_world,
+)
 from mitsar.model.geometry.navigation import (
     NavigationErrors,
     describe_navigation,
@@ -168,13 +181,13 @@ def simulate_point_targets(radar: Radar, trajectory: Trajectory, look: Look,
                  normalized=normalized, pattern=pattern, noise=noise, backend=backend,
                  navigation=navigation)
     sweeps = plan["sweeps"]
-    amplitude = _echo_amplitudes(radar, look, plan["geometry"], plan["positions"],
-                                 plan["velocities"], plan["reflectivity"](sweeps),
-                                 normalized=normalized, pattern=pattern)
-    if not np.any(amplitude):
+    amplitudes = _channel_amplitudes(radar, look, plan["geometry"], plan["positions"],
+                                     plan["velocities"], plan["reflectivity"](sweeps),
+                                     normalized=normalized, pattern=pattern)
+    if not any(np.any(amplitude) for amplitude in amplitudes):
         raise _all_zero_error()
     sum_echoes = _sum_echoes_drjit if backend == "drjit" else _sum_echoes_numpy
-    channels = [_channel_samples(radar, trajectory, plan, plan["geometry"], amplitude,
+    channels = [_channel_samples(radar, trajectory, plan, plan["geometry"], amplitudes[channel],
                                  np.arange(sweeps), channel, offsets, sum_echoes, rvp=rvp,
                                  noise=noise, seed=seed, progress=progress,
                                  chunk_elements=chunk_elements)
@@ -229,13 +242,14 @@ def stream_point_targets(radar: Radar, trajectory: Trajectory, look: Look,
                       desc="simulate", unit="chunk"):
         part = slice(start, min(start + sweeps_per_chunk, sweeps))
         chunk_geometry = geometry.select(part)
-        amplitude = _echo_amplitudes(radar, look, chunk_geometry, plan["positions"],
-                                     plan["velocities"], plan["reflectivity"](part.stop - start),
-                                     normalized=normalized, pattern=pattern)
-        any_echo = any_echo or bool(np.any(amplitude))
+        amplitudes = _channel_amplitudes(radar, look, chunk_geometry, plan["positions"],
+                                         plan["velocities"],
+                                         plan["reflectivity"](part.stop - start),
+                                         normalized=normalized, pattern=pattern)
+        any_echo = any_echo or any(bool(np.any(amplitude)) for amplitude in amplitudes)
         if start < first_chunk * sweeps_per_chunk:  # done by an interrupted run: draws only
             continue
-        channels = [_channel_samples(radar, trajectory, plan, chunk_geometry, amplitude,
+        channels = [_channel_samples(radar, trajectory, plan, chunk_geometry, amplitudes[channel],
                                      np.arange(part.start, part.stop), channel, offsets,
                                      sum_echoes, rvp=rvp, noise=noise, seed=seed,
                                      progress=False, chunk_elements=STREAM_KERNEL_LANES)
@@ -486,8 +500,43 @@ def _reception_warnings(radar: Radar, look: Look, geometry: SweepGeometry,
     names = [f"targets[{i}] at [{', '.join(f'{v:g}' for v in p)}] m"
              for i, p in enumerate(positions)]
     messages = reception_warnings(radar, seen, names, pattern=pattern)
+    if pattern and radar.has_element_beams:
+        messages += _element_warnings(radar, look, geometry, positions, targets, names)
     for message in messages:
         warnings.warn(f"simulate_point_targets: {message}", MitsarWarning, stacklevel=4)
+    return messages
+
+
+def _element_warnings(radar: Radar, look: Look, geometry: SweepGeometry, positions: NDArray,
+                      targets: list[PointTarget], names: list[str]) -> list[str]:
+    """One sentence per (element with its own beam, target) outside that element's main lobe
+    in every sweep (:func:`mitsar.model.reception.reception` with the element's beamwidths and
+    frame): the channels through it receive the target through sidelobes only, or nothing
+    behind the element."""
+    transmitters, receivers = radar.channel_elements()
+    attitude = body_to_world(*geometry.attitude.T)
+    messages = []
+    for role, elements in (("transmitter", transmitters), ("receiver", receivers)):
+        for element in dict.fromkeys(e for e in elements if e.has_own_beam):
+            channels = [k for k, e in enumerate(elements) if e == element]
+            beam = element_beam(element, radar, look)
+            own = dataclasses.replace(radar, azimuth_beamwidth_deg=math.degrees(
+                beam.beamwidth_az), elevation_beamwidth_deg=math.degrees(beam.beamwidth_el),
+                receivers=None, transmitters=None, ping_pong=False)
+            seen = reception(own, positions, geometry.position,
+                             attitude @ element_frame(element, look),
+                             np.array([t.velocity for t in targets], dtype=float),
+                             geometry.slow_time + radar.sweep_duration / 2)
+            for i in np.flatnonzero(~seen.main_lobe):
+                peak = float(np.sqrt(seen.peak_pattern[i]))  # one-way power pattern
+                what = ("is behind it or on a null of its pattern in every sweep: no echo"
+                        if peak <= 0.0 else f"is outside its main lobe in every sweep (peak "
+                        f"one-way pattern {10 * np.log10(peak):.1f} dB): sidelobes only")
+                messages.append(
+                    f"{names[i]}, seen by the {role} element at "
+                    f"[{', '.join(f'{v:g}' for v in element.position)}] m with its own "
+                    f"pattern/boresight (channels {channels}), {what} (check the element's "
+                    "boresight and beamwidths)")
     return messages
 
 
@@ -512,6 +561,55 @@ def _echo_amplitudes(radar: Radar, look: Look, geometry: SweepGeometry, position
     if not normalized:
         amplitude = amplitude * radar_equation_amplitude(radar, 1.0, centre_range)
     return amplitude
+
+
+def _channel_amplitudes(radar: Radar, look: Look, geometry: SweepGeometry, positions: NDArray,
+                        velocities: NDArray, reflectivity: NDArray, *, normalized: bool,
+                        pattern: bool) -> list[NDArray[np.complex128]]:
+    """Complex amplitude of every scatterer in every sweep for each channel, shape
+    (sweeps, scatterers) each.
+
+    A channel whose two elements are the radar's antenna (no pattern or boresight of their
+    own, :class:`mitsar.model.elements.Element`) shares :func:`_echo_amplitudes` (bit for bit
+    the single-antenna amplitudes). Any other channel (transmitter i, receiver j) gets
+    ``sqrt(RCS) f_i(d) f_j(d) sqrt(P_T G_i G_j lambda^2 / ((4 pi)^3 R^4))``, each element's
+    field pattern in its own frame (:func:`mitsar.model.elements.channel_amplitude_factor`),
+    the direction ``d`` and range ``R`` from the track point at mid-sweep as for the radar's
+    antenna (a centimetre offset turns the direction by ~1e-3 of a beamwidth at 8 m).
+    """
+    shared = _echo_amplitudes(radar, look, geometry, positions, velocities, reflectivity,
+                              normalized=normalized, pattern=pattern)
+    channels = len(_channel_offsets(radar))
+    if not radar.has_element_beams:
+        return [shared] * channels
+    beams = radar.channel_beams(look)
+    own = [not (_is_radar_beam(t, radar) and _is_radar_beam(r, radar)) for t, r in beams]
+    offset = positions[None, :, :] + velocities[None, :, :] * (
+        geometry.slow_time[:, None, None] + radar.sweep_duration / 2) \
+        - geometry.position[:, None, :]
+    centre_range = np.linalg.norm(offset, axis=-1)
+    sines = direction_sines(offset / centre_range[..., None],
+                            antenna_frame(look, *geometry.attitude.T)[:, None])
+    scale = (reflectivity.astype(complex) if normalized else reflectivity.astype(complex)
+             * radar_equation_amplitude(radar, 1.0, centre_range))
+    out = []
+    for (transmit, receive), different in zip(beams, own, strict=True):
+        if not different:
+            out.append(shared)
+            continue
+        gain = None if normalized else radar.antenna_gain
+        if pattern:
+            factor = channel_amplitude_factor(*sines, transmit, receive, gain)
+        else:  # no pattern: the boresight gains only
+            factor = 1.0 if gain is None else np.sqrt(transmit.gain * receive.gain) / gain
+        out.append(scale * factor)
+    return out
+
+
+def _is_radar_beam(beam: ElementBeam, radar: Radar) -> bool:
+    """Whether an element's beam is the radar's antenna along the look's boresight."""
+    return (beam.identity and beam.beamwidth_az == radar.azimuth_beamwidth
+            and beam.beamwidth_el == radar.elevation_beamwidth)
 
 
 def _sample_times(radar: Radar, geometry: SweepGeometry, sweep_slice: slice) -> NDArray:
