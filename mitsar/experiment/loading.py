@@ -158,10 +158,16 @@ def experiment_from_dict(data: Mapping[str, Any], source: str | os.PathLike | No
 
 
 def _radar_config(radar: Radar) -> dict[str, Any]:
-    """The radar's effective parameters (None and a false ``ping_pong`` dropped) for the
-    config record."""
-    return {f.name: getattr(radar, f.name) for f in dataclasses.fields(radar)
-            if getattr(radar, f.name) is not None and getattr(radar, f.name) is not False}
+    """The radar's effective parameters (None and a false ``ping_pong`` dropped; elements
+    with their own beam as tables) for the config record."""
+    config = {f.name: getattr(radar, f.name) for f in dataclasses.fields(radar)
+              if f.init and getattr(radar, f.name) is not None
+              and getattr(radar, f.name) is not False}
+    for name in ("receivers", "transmitters"):
+        elements = getattr(radar, f"{name[:-1]}_elements") or ()
+        if any(e.has_own_beam for e in elements):
+            config[name] = [e.to_dict() for e in elements]
+    return config
 
 
 def load_experiment(path: str | os.PathLike, overrides: Sequence[str] = ()) -> Experiment:

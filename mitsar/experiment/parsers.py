@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import copy
 import dataclasses
-import math
 import os
 from pathlib import Path
 from typing import Any
@@ -74,6 +73,8 @@ def parse_radar(t: Table) -> Radar:
     multi-channel (interferometric) radar."""
     kwargs: dict[str, Any] = {}
     for f in dataclasses.fields(Radar):
+        if not f.init:  # derived (the elements of receivers/transmitters)
+            continue
         if f.name in ("receivers", "transmitters"):  # phase centres (docs/interferometry.md)
             value = _phase_centres(t, f.name)
         elif f.name == "ping_pong":
@@ -93,13 +94,19 @@ def parse_radar(t: Table) -> Radar:
 
 def _phase_centres(t: Table, name: str) -> list[tuple[float, ...]] | None:
     """``[radar] receivers = [[x, y, z], ...]`` or ``[[radar.receivers]]`` tables, each with
-    ``position = [x, y, z]`` (body frame [m]); None when absent."""
+    ``position = [x, y, z]`` (body frame [m]) and optionally the element's own pattern and
+    boresight (:class:`mitsar.model.elements.Element`'s fields); None when absent."""
     value = t.data.get(name)
     if isinstance(value, list) and value and all(isinstance(item, dict) for item in value):
         centres = []
-        for element in t.tables(name):
-            centres.append(element.vector("position", 3, unit="m, body frame"))
+        for element in t.tables(name):  # an Element: position, own beam (mitsar.model.elements)
+            fields = {"position": element.vector("position", 3, unit="m, body frame"),
+                      "boresight": element.vector("boresight", 3, None, unit="body frame")}
+            for key in ("azimuth_beamwidth_deg", "elevation_beamwidth_deg", "off_nadir_deg",
+                        "squint_deg"):
+                fields[key] = element.number(key, None, unit="deg")
             element.finish()
+            centres.append({k: v for k, v in fields.items() if v is not None})
         return centres
     return t.vectors(name, 3, default=None, unit="m, body frame")
 
@@ -276,8 +283,8 @@ def parse_background(t: Table) -> Background:
     cell_rcs_db = t.number("cell_rcs_db", -20.0, unit="dB")
     per_cell = t.integer("scatterers_per_cell", 9, ge=1)
     mode = t.string("mode", "pulse", choices=("pulse", "frozen"))
-    axis_u = t.vector("axis_u", 3, (1.0, 0.0, 0.0))
-    axis_v = t.vector("axis_v", 3, (0.0, 1.0, 0.0))
+    axis_u = t.vector("axis_u", 3, (1.0, 0.0, 0.0), unit="direction")
+    axis_v = t.vector("axis_v", 3, (0.0, 1.0, 0.0), unit="direction")
     for name, axis in (("axis_u", axis_u), ("axis_v", axis_v)):
         if not np.linalg.norm(axis) > 0:
             raise t.error(name, "a non-zero direction", list(axis))
@@ -307,7 +314,7 @@ def parse_simulation(t: Table | None) -> TraceOptions:
                            rays=t.integer("rays", None, ge=1),
                            ray_cover=t.number("ray_cover", None, unit="beamwidths", gt=0),
                            ghosts=t.boolean("ghosts", None),
-                           plane_normal=t.vector("plane_normal", 3, None),
+                           plane_normal=t.vector("plane_normal", 3, None, unit="direction"),
                            slab_width=t.number("slab_width", None, unit="m", gt=0),
                            physical_optics=_physical_optics(t),
                            visibility_feature=t.number("visibility_feature", None,
@@ -365,7 +372,7 @@ def parse_grid(t: Table) -> dict[str, Any]:
         require_pixels(t.where, t.key("along_track") + " x slant_range", counts[0] * counts[1])
     elif kind == "plane":
         for name in ("origin", "axis_u", "axis_v"):
-            t.vector(name, 3, unit="m" if name == "origin" else "")
+            t.vector(name, 3, unit="m" if name == "origin" else "direction")
         u, v = np.asarray(t.out["axis_u"]), np.asarray(t.out["axis_v"])
         for name, axis in (("axis_u", u), ("axis_v", v)):
             if not np.linalg.norm(axis) > 0:
@@ -390,6 +397,11 @@ def parse_axis(t: Table, name: str) -> float:
     return axis_count(start, stop, step)
 
 
+MAX_ISLR_CELLS = 1.0e5
+"""Largest numeric ``islr_extent`` [resolution cells]: a chip of 2e5 cells a side is beyond any
+image grid (``mitsar.focus.grid.require_pixels``); 1e300 used to pass the load (issue 27)."""
+
+
 def parse_metrics(t: Table | None) -> MetricsOptions:
     """``[metrics]``: target position and ISLR side-lobe extent."""
     if t is None:
@@ -397,10 +409,11 @@ def parse_metrics(t: Table | None) -> MetricsOptions:
     target = t.vector("target", 3, None, unit="m")
     t.seen.add("islr_extent")
     extent: str | float = t.data.get("islr_extent", "paper")
-    expected = f"one of {', '.join(repr(e) for e in ISLR_EXTENTS)} or a number of cells > 0"
+    expected = (f"one of {', '.join(repr(e) for e in ISLR_EXTENTS)} or a number of cells > 0 "
+                f"and <= {MAX_ISLR_CELLS:g}")
     if isinstance(extent, bool) or not (
             (isinstance(extent, str) and extent in ISLR_EXTENTS)
-            or (isinstance(extent, int | float) and math.isfinite(extent) and extent > 0)):
+            or (isinstance(extent, int | float) and 0 < extent <= MAX_ISLR_CELLS)):
         raise t.error("islr_extent", expected, extent)
     t.out["islr_extent"] = extent
     t.finish()
