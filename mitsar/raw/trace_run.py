@@ -112,6 +112,7 @@ class TraceRun:
             raise ParameterError(where, "look", "a mitsar.Look", type(look))
         options.resolve(where)  # the caller's errors before any scene is loaded
         radar.check_prf(trajectory.max_speed())
+        radar.require_shared_beam(where)  # per-element beams: the analytic simulator only
         total = sweep_count(radar, trajectory.duration)
         if total < 1:
             raise ParameterError(where, "trajectory.duration",
