@@ -161,3 +161,10 @@ def test_elements_validate_round_trip_and_parse_from_toml():
     with pytest.raises(ParameterError, match=r"radar.receivers\[1\].boresight"):
         experiment_from_dict({**base, "radar": {"receivers": [
             {"position": [0, 0, 0]}, {"position": [0, 0, 0.05], "boresight": [0, 1]}]}})
+
+
+def test_the_ray_tracer_refuses_elements_with_their_own_beam_until_it_models_them():
+    radar = mitsar.Radar(receivers=[(0, 0, 0), {"position": (0, 0, 0.05),
+                                                 "off_nadir_deg": 40.0}])
+    with pytest.raises(ParameterError, match=r"radar.receivers\[1\].*simulate_point_targets"):
+        mitsar.simulate_scene(radar, TRACK, LOOK, "control_volume")

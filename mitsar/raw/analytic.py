@@ -516,7 +516,9 @@ def _element_warnings(radar: Radar, look: Look, geometry: SweepGeometry, positio
     transmitters, receivers = radar.channel_elements()
     attitude = body_to_world(*geometry.attitude.T)
     messages = []
-    for role, elements in (("transmitter", transmitters), ("receiver", receivers)):
+    roles = ((("transmit-receive", receivers),) if radar.ping_pong
+             else (("transmitter", transmitters), ("receiver", receivers)))
+    for role, elements in roles:
         for element in dict.fromkeys(e for e in elements if e.has_own_beam):
             channels = [k for k, e in enumerate(elements) if e == element]
             beam = element_beam(element, radar, look)
