@@ -17,8 +17,10 @@ from numpy.typing import NDArray
 
 from mitsar.errors import ParameterError
 
-__all__ = ["MAX_LENGTH", "MAX_LEVEL_DB", "MAX_RCS", "MAX_SEED", "KnownFields", "boolean",
-           "finite", "integer", "is_real", "level_db", "positive", "rcs", "seed", "vector"]
+__all__ = ["MAGNITUDE_BOUNDS", "MAX_ANGLE_DEG", "MAX_DB", "MAX_DURATION", "MAX_FREQUENCY",
+           "MAX_LENGTH", "MAX_LEVEL_DB", "MAX_RCS", "MAX_SEED", "MAX_SPEED", "KnownFields",
+           "bounded", "boolean", "finite", "integer", "is_real", "level_db", "positive", "rcs",
+           "seed", "vector"]
 
 MAX_LEVEL_DB = 100.0
 """Highest RCS or sigma0 level accepted [dB re 1 m² or m²/m²]: 1e10 m², far above any indoor
@@ -29,6 +31,52 @@ MAX_LENGTH = 1.0e4
 """Largest length or coordinate accepted in an experiment or a trace request [m]: 10 km, far
 beyond any indoor scene, flight or the receiver's ``max_range`` (tens of metres), and far below
 where squares of positions overflow (1e300 m passed unchecked: docs/reliability.md §1)."""
+
+
+MAX_SPEED = 1.0e3
+"""Largest platform or target speed accepted [m/s]: 1 km/s, far beyond any drone or walker
+(metres per second) and still far below where squares of velocities overflow; velocities of
+1e300 m/s passed ``Trajectory`` unchecked (issue 27, docs/reliability.md §1)."""
+
+MAX_DURATION = 1.0e6
+"""Longest time accepted [s] (a flight, a hover, a navigation log's span): about 11.6 days,
+far beyond any indoor flight (minutes); durations of 1e300 s passed unchecked (issue 27)."""
+
+MAX_ANGLE_DEG = 1.0e6
+"""Largest angle or angular rate accepted [deg, deg/s]: an unwrapped heading of 2,777 turns;
+beyond it sin and cos of a float lose every digit (issue 27)."""
+
+MAX_DB = 1.0e3
+"""Largest magnitude of a dB quantity in an experiment file: 10^(±100), beyond any gain, loss
+or level (and below the ~3080 dB where 10^(L/10) overflows a float)."""
+
+MAX_FREQUENCY = 1.0e13
+"""Largest frequency accepted in an experiment file [Hz]: 10 THz, the radar's carrier bound
+(``mitsar.model.radar``)."""
+
+MAGNITUDE_BOUNDS: dict[str, float] = {
+    "m": MAX_LENGTH, "m, body frame": MAX_LENGTH, "m/sqrt(s)": MAX_LENGTH,
+    "direction": MAX_LENGTH, "m/s": MAX_SPEED, "m/s^2": 1.0e4, "s": MAX_DURATION,
+    "deg": MAX_ANGLE_DEG, "deg/s": MAX_ANGLE_DEG, "deg/sqrt(s)": MAX_ANGLE_DEG,
+    "rad": math.radians(MAX_ANGLE_DEG), "dB": MAX_DB, "Hz": MAX_FREQUENCY,
+    "1/m^2": 1.0e8, "beamwidths": 100.0,
+}
+"""Largest magnitude of a value by its unit (experiment files, ``Table``; docs/reliability.md
+§1): an acceleration of 1e4 m/s² is 1000 g; a scatterer density of 1e8 per m² puts ~1000
+scatterers in a wavelength square at 94 GHz; a ray fan of 100 beamwidths covers any beam.
+Values beyond mean a typing error, not an experiment, and overflow later computations."""
+
+
+def bounded(where: str, name: str, values: Any, unit: str, expected: str) -> None:
+    """Refuse finite ``values`` (a number or an array) whose magnitude exceeds the bound of
+    ``unit`` in :data:`MAGNITUDE_BOUNDS` (units without a bound pass)."""
+    bound = MAGNITUDE_BOUNDS.get(unit)
+    array = np.abs(np.asarray(values, dtype=float))
+    if bound is not None and array.size and not np.all(array <= bound):
+        shown = values.tolist() if isinstance(values, np.ndarray) else values
+        shown_unit = "" if unit == "direction" else " " + unit.split(",")[0]
+        raise ParameterError(where, name, f"{expected}, within ±{bound:g}{shown_unit} (indoor "
+                             "scenes and drone flights)", shown)
 
 
 def is_real(value: object) -> bool:

@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from mitsar.ambiguity.maps import CRITERIA, INTEGRATION_MODES, required_resolutions
+from mitsar.checks import MAX_DURATION, bounded
 from mitsar.errors import ParameterError
 from mitsar.experiment.parsers import parse_look, parse_radar, parse_trajectory
 from mitsar.experiment.table import Table
@@ -53,8 +54,10 @@ def _parse_ambiguity_options(t: Table) -> dict[str, Any]:
     if isinstance(value, str):
         if value not in INTEGRATION_MODES:
             raise t.error("integration_time", "'beam', 'required' or a time > 0 [s]", value)
-    elif isinstance(value, bool) or not isinstance(value, int | float) or not value > 0:
-        raise t.error("integration_time", "'beam', 'required' or a time > 0 [s]", value)
+    elif isinstance(value, bool) or not isinstance(value, int | float) \
+            or not 0 < value <= MAX_DURATION:
+        raise t.error("integration_time", "'beam', 'required' or a time > 0 and <= "
+                      f"{MAX_DURATION:g} [s]", value)
     options["integration_time"] = float(value) if not isinstance(value, str) else value
     options["beam_threshold_db"] = t.number("beam_threshold_db", -6.0, unit="dB", lt=0)
     options["min_angle_deg"] = t.number("min_angle_deg", 30.0, unit="deg", ge=0, lt=90)
@@ -72,8 +75,8 @@ def _parse_planes(tables: list[Table]) -> list[dict[str, Any]]:
         if any(plane["name"] == name for plane in planes):  # maps and tables are by name
             raise t.error("name", "a name no other [[surfaces]] entry has", name)
         origin = t.vector("origin", 3, unit="m")
-        axis_u = t.vector("axis_u", 3)
-        axis_v = t.vector("axis_v", 3)
+        axis_u = t.vector("axis_u", 3, unit="direction")
+        axis_v = t.vector("axis_v", 3, unit="direction")
         size = t.vector("size", 2, unit="m")
         t.finish()
         u, v = np.asarray(axis_u), np.asarray(axis_v)
@@ -140,6 +143,8 @@ def ambiguity_from_dict(data: dict[str, Any], where: str, base: str | os.PathLik
     required = top.data.get("required_resolution", 0.10)
     try:
         required_resolutions(required)
+        bounded(where, "required_resolution", required, "m", "a resolution > 0 m, or a "
+                "(range, azimuth) pair of them")
     except ParameterError as error:
         raise top.error("required_resolution", error.expected, required) from error
     out["required_resolution"] = (tuple(float(r) for r in required)

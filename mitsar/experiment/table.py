@@ -16,7 +16,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-from mitsar.checks import MAX_LENGTH
+from mitsar.checks import bounded
 from mitsar.errors import ParameterError
 
 __all__ = ["MISSING", "Table", "prefixed"]
@@ -105,11 +105,13 @@ class Table:
         return value
 
     def _check_length(self, name: str, expected: str, values: Any, unit: str) -> None:
-        """Refuse a length or coordinate [m] beyond :data:`mitsar.checks.MAX_LENGTH`."""
-        if unit == "m" and any(abs(v) > MAX_LENGTH for v in values):
-            raise self.error(name, f"{expected}, within ±{MAX_LENGTH:g} m (indoor scenes: "
-                             "lengths and positions of metres)", list(values) if len(values)
-                             > 1 else values[0])
+        """Refuse a value beyond the bound of its unit (:data:`mitsar.checks.MAGNITUDE_BOUNDS`:
+        lengths and positions 10 km, speeds 1 km/s, times 1e6 s, dB 1000, ...)."""
+        try:
+            bounded(self.where, self.key(name), list(values), unit, expected)
+        except ParameterError as error:
+            raise self.error(name, error.expected, list(values) if len(values) > 1
+                             else values[0]) from None
 
     def integer(self, name: str, default: Any = MISSING, ge: int | None = None) -> int | None:
         """An integer, with an optional lower bound."""
