@@ -87,7 +87,7 @@ MEMORY_CASES = {
         RADAR, TRACK, LOOK, [TARGET], mitsar.Background((15, 8, 0), (1e6, 1e6))),
         "background.size"),
     "samples (duration)": (lambda: mitsar.simulate_point_targets(
-        RADAR, mitsar.Trajectory.linear([14.9, 1.4, 4.5], [0.5, 0, 0], 1e12), LOOK, [TARGET]),
+        RADAR, mitsar.Trajectory.linear([14.9, 1.4, 4.5], [0.5, 0, 0], 1e4), LOOK, [TARGET]),
         "trajectory.duration"),
     "focus grid pixels (file)": (lambda: experiment_from_dict(_experiment(focus={
         "grid": {"kind": "slant", "along_track": [-1e3, 1e3, 1e-6],
