@@ -15,7 +15,6 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.signal import windows as scipy_windows
 
 from mitsar.errors import ParameterError
 
@@ -40,6 +39,8 @@ def window_coefficients(name: str, nbar: int = 4, sidelobe_db: float = 35.0) -> 
     if name == "taylor":
         # The Taylor window is a finite cosine series with nbar - 1 harmonics: fit it exactly
         # (least squares on dense samples) rather than re-deriving F_m.
+        from scipy.signal import windows as scipy_windows  # lazy: SciPy's signal tools are heavy
+
         samples = 4096
         x = (np.arange(samples) + 0.5) / samples
         values = scipy_windows.taylor(samples, nbar=nbar, sll=sidelobe_db, norm=True, sym=True)

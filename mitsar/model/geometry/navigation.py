@@ -30,7 +30,6 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.signal import lfilter
 
 from mitsar import checks
 from mitsar.errors import ParameterError
@@ -230,6 +229,8 @@ def _gauss_markov(draw: NDArray, sigma: ArrayLike, tau: float, dt: float) -> NDA
     sigma = np.asarray(sigma, dtype=float)
     forcing = draw * (sigma * math.sqrt(1.0 - decay * decay))
     forcing[0] = draw[0] * sigma
+    from scipy.signal import lfilter  # lazy: SciPy's signal tools are heavy
+
     return lfilter([1.0], [1.0, -decay], forcing, axis=0)
 
 
