@@ -182,7 +182,8 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_argument("-f", "--format", choices=("sicd", "cphd"), required=True,
                      help="output format")
     sub.add_argument("--raw", metavar="RAW.nc",
-                     help="sicd: the raw product the image was focused from")
+                     help="sicd: the raw product the image was focused from (optional: "
+                     "an image focused by mitsar carries its aperture)")
 
     sub = _file_command(commands, common, "metrics", cmd_metrics, "IRW, PSLR, ISLR of a target",
                         "Impulse-response metrics of a point target.", ("image", "IMAGE.nc"),

@@ -111,11 +111,10 @@ def cmd_export(args: argparse.Namespace) -> int:
     """``mitsar export``: image product -> SICD, raw product -> CPHD (docs/products.md)."""
     check_writable(args.output, args.overwrite)
     if args.format == "sicd":
-        if not args.raw:
-            raise MitsarError("mitsar export -f sicd: pass --raw RAW.nc, the raw product the "
-                              "image was focused from (SICD needs the antenna track)")
+        # the image carries the aperture it was formed from; --raw gives the same metadata
         written = write_sicd(load(args.product, product="image"), args.output,
-                             raw=load(args.raw, product="raw"), overwrite=args.overwrite)
+                             raw=load(args.raw, product="raw") if args.raw else None,
+                             overwrite=args.overwrite)
     else:
         written = write_cphd(load(args.product, product="raw"), args.output,
                              overwrite=args.overwrite)
