@@ -215,8 +215,18 @@ def plot_comparison(comparison: xr.Dataset, path: str | os.PathLike | None = Non
     plt = _pyplot()
     names = [str(n) for n in comparison["trajectory"].values]
     surfaces = [str(s) for s in comparison["surface"].values]
-    figure = plt.figure(figsize=(max(9, 1.2 * len(surfaces) + 4), 4 + 3.6), layout="constrained")
-    grid = figure.add_gridspec(2, max(2, len(names)))
+    tracks = json.loads(comparison.attrs.get("tracks", "{}"))
+    position = comparison["position"].values
+    extent = np.vstack([position[:, :2]] + [np.asarray(t)[:, :2] for t in tracks.values()])
+    low, high = extent.min(axis=0), extent.max(axis=0)
+    margin = 0.03 * float(np.max(high - low) or 1.0)
+    # The top views keep x and y to scale: their row is as tall as a panel's width times the
+    # scene's aspect (a fixed height left a blank band around a long, narrow room).
+    width, columns = max(9, 1.2 * len(surfaces) + 4), max(2, len(names))
+    span = np.maximum(high - low + 2 * margin, 1e-9)
+    maps = float(np.clip((width / columns - 0.7) * span[1] / span[0], 0.8, 6.0)) + 0.9
+    figure = plt.figure(figsize=(width, 4 + maps + 0.3), layout="constrained")
+    grid = figure.add_gridspec(2, columns, height_ratios=(4, maps))
     ax = figure.add_subplot(grid[0, :])
     width = 0.8 / len(names)
     x = np.arange(len(surfaces) + 1)
@@ -231,12 +241,7 @@ def plot_comparison(comparison: xr.Dataset, path: str | os.PathLike | None = Non
     ax.grid(alpha=0.3, axis="y")
     ax.set_title(f"Area observed at {_requirement_text(comparison.attrs)} without ambiguity")
     cmap, norm = _status_colormap()
-    tracks = json.loads(comparison.attrs.get("tracks", "{}"))
-    position = comparison["position"].values
     order = np.argsort(-position[:, 2], kind="stable")  # top view: the lowest drawn last
-    extent = np.vstack([position[:, :2]] + [np.asarray(t)[:, :2] for t in tracks.values()])
-    low, high = extent.min(axis=0), extent.max(axis=0)
-    margin = 0.03 * float(np.max(high - low) or 1.0)
     for i, name in enumerate(names):
         axis = figure.add_subplot(grid[1, i])
         axis.scatter(position[order, 0], position[order, 1],
@@ -256,7 +261,7 @@ def plot_comparison(comparison: xr.Dataset, path: str | os.PathLike | None = Non
 
     figure.legend(handles=[Patch(color=c, label=m.replace("_", " "))
                            for c, m in zip(_STATUS_COLOURS, STATUS_MEANINGS, strict=True)],
-                  loc="lower center", ncols=4, fontsize=8)
+                  loc="outside lower center", ncols=4, fontsize=8)
     if path is not None:
         return _save(figure, path, overwrite)
     return figure
