@@ -39,7 +39,7 @@ from mitsar.model.geometry.navigation import NavigationErrors
 from mitsar.model.geometry.trajectory import Trajectory, is_vertical
 from mitsar.model.radar import Radar
 from mitsar.model.targets import Background, PointTarget
-from mitsar.model.trace_options import TraceOptions
+from mitsar.model.trace_options import MAX_DEPTH, TraceOptions
 from mitsar.scene.motion import Motion
 from mitsar.scene.motion import parse_motion as parse_motion_mapping
 
@@ -302,8 +302,9 @@ def parse_simulation(t: Table | None) -> TraceOptions:
         return TraceOptions(seed=0, rvp=True, normalized=False, noise=False,
                             physical_optics=False)
     orders = t.numbers("orders", 1, None)
-    if orders is not None and any(o != int(o) or o < 0 for o in orders):
-        raise t.error("orders", "integers >= 0 (0: direct backscatter)", orders)
+    if orders is not None and any(not 0 <= o <= MAX_DEPTH or o != int(o) for o in orders):
+        raise t.error("orders", f"integers in [0, {MAX_DEPTH}] (0: direct backscatter; a ray "
+                      f"makes at most {MAX_DEPTH} hits)", orders)
     options = TraceOptions(seed=_seed(t), rvp=t.boolean("rvp", True),
                            normalized=t.boolean("normalized", False),
                            noise=t.boolean("noise", False),
@@ -321,6 +322,8 @@ def parse_simulation(t: Table | None) -> TraceOptions:
                                                        unit="m", ge=0),
                            block_kernel=t.boolean("block_kernel", None))
     t.finish()
+    with prefixed(t):  # every field over the defaults, at load, whatever the command (issue 27)
+        options.resolve("TraceOptions")
     return options
 
 
