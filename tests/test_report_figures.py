@@ -52,3 +52,62 @@ def test_ambiguity_comparison_has_no_blank_band(width, depth, tmp_path):
     height: a band of 16 % of the figure was blank. The row now takes the maps' own aspect."""
     path = plot_comparison(_comparison(width, depth), tmp_path / "comparison.png")
     assert _longest_blank_band(path) < 0.08
+
+
+def _plane_image(axis_u, axis_v, origin=(14.4, 7.3, 0.0), target=(15.0, 8.0, 0.0)):
+    """A plane-grid image (:class:`mitsar.focus.grid.PlaneGrid`'s layout) with a bright
+    pixel at ``target``, which is also its metrics target."""
+    u, v = np.arange(0.0, 1.01, 0.02), np.arange(0.0, 1.21, 0.02)
+    axis_u, axis_v, origin = (np.asarray(a, float) for a in (axis_u, axis_v, origin))
+    position = origin + v[:, None, None] * axis_v + u[None, :, None] * axis_u
+    distance = np.linalg.norm(position - np.asarray(target), axis=-1)
+    image = np.exp(-(distance / 0.05) ** 2) + 1e-3
+    return xr.Dataset(
+        {"image": (("v", "u"), image.astype(complex)), "position": (("v", "u", "xyz"), position)},
+        coords={"u": u, "v": v},
+        attrs={"product": "image", "grid_kind": "plane", "grid_origin": list(origin),
+               "grid_axis_u": list(axis_u), "grid_axis_v": list(axis_v),
+               "target_positions": list(target), "metrics_target": list(target)})
+
+
+def _mark(ax, name):
+    return next(line for line in ax.get_lines() if line.get_label() == name)
+
+
+@pytest.mark.parametrize(("axis_u", "axis_v", "labels"),
+                         [((1, 0, 0), (0, 1, 0), ("x [m]", "y [m]")),
+                          ((-1, 0, 0), (0, 1, 0), ("x [m]", "y [m]")),
+                          ((0, 1, 0), (0, 0, 1), ("y [m]", "z [m]"))])
+def test_axis_aligned_plane_images_are_drawn_in_world_coordinates(axis_u, axis_v, labels):
+    """A plane grid along world axes was drawn in u / v (0 ... 1.2 m from its origin): now in
+    the scene's x, y, z, the target and the metrics target (a circle) where the scene has them.
+    """
+    from mitsar.plots.figures import METRICS_MARK, plot_image, target_marks
+
+    origin = np.array([14.4, 7.3, 0.0])
+    target = origin + 0.6 * np.asarray(axis_u, float) + 0.7 * np.asarray(axis_v, float)
+    image = _plane_image(axis_u, axis_v, origin, target)
+    marks = target_marks(image)
+    assert set(marks) == {"target", METRICS_MARK}
+    ax = plot_image(image, marks=marks)
+    assert (ax.get_xlabel(), ax.get_ylabel()) == labels
+    column, row = ("xyz".index(label[0]) for label in labels)
+    for name in ("target", METRICS_MARK):
+        (x,), (y,) = _mark(ax, name).get_data()
+        assert x == pytest.approx(target[column], abs=0.011)
+        assert y == pytest.approx(target[row], abs=0.011)
+    assert _mark(ax, METRICS_MARK).get_marker() == "o"
+    left, right, _, _ = ax.get_images()[0].get_extent()
+    start = origin[column] - 0.01 * np.sign(sum(axis_u))
+    assert left == pytest.approx(start, abs=1e-9)  # pixel edges, half a 0.02 m cell out
+    plt.close(ax.figure)
+
+
+def test_an_oblique_plane_states_its_axes_in_world_terms():
+    from mitsar.plots.figures import plot_image
+
+    image = _plane_image((0.6, 0.8, 0.0), (-0.8, 0.6, 0.0))
+    ax = plot_image(image)
+    assert ax.get_xlabel() == "u [m] along (0.6, 0.8, 0) from (14.4, 7.3, 0)"
+    assert ax.get_ylabel().startswith("v [m] along (-0.8, 0.6, 0)")
+    plt.close(ax.figure)

@@ -41,10 +41,12 @@ from mitsar.io import atomic_output, check_writable, load  # noqa: E402
 from mitsar.model.geometry.attitude import Look, boresight  # noqa: E402
 from mitsar.products.image import vector_attr  # noqa: E402
 from mitsar.products.raw import radar_of  # noqa: E402
-from mitsar.products.requests import target_positions  # noqa: E402
+from mitsar.products.requests import metrics_request, target_positions  # noqa: E402
 
 __all__ = [
+    "METRICS_MARK",
     "first_channel",
+    "image_display_axes",
     "plot_background_histograms",
     "plot_cuts",
     "plot_file",
@@ -163,6 +165,55 @@ def _image_axes(image: xr.Dataset) -> tuple[str, str, NDArray, NDArray]:
 _AXIS_LABELS = {"azimuth": "along track [m]", "range": "slant range [m]", "u": "u [m]",
                 "v": "v [m]", "row": "row", "col": "column"}
 
+_WORLD = "xyz"
+
+
+def _world_axis(direction: ArrayLike) -> tuple[int, float] | None:
+    """``(i, sign)`` when ``direction`` is the world axis ``sign * e_i``, else None."""
+    direction = np.asarray(direction, dtype=float)
+    i = int(np.argmax(np.abs(direction)))
+    if abs(abs(direction[i]) - 1.0) > 1e-9 or np.abs(np.delete(direction, i)).max() > 1e-9:
+        return None
+    return i, float(np.sign(direction[i]))
+
+
+def image_display_axes(image: xr.Dataset) -> tuple[Any, Any, str, str]:
+    """How an image's columns and rows are shown: two maps from the image coordinate [m] to
+    the shown one, and the axis labels.
+
+    A plane grid (``origin + u axis_u + v axis_v``, :class:`mitsar.focus.grid.PlaneGrid`)
+    whose axes are world axes is shown in world coordinates: ``x = origin_x + u`` for
+    ``axis_u = (1, 0, 0)``, ``-u`` for ``(-1, 0, 0)``, labelled "x [m]" (the scene's frame,
+    where the targets and the scene's surfaces are given). Another plane keeps u and v and
+    states their directions and origin in world terms; other grids keep their axes
+    (:data:`_AXIS_LABELS`).
+    """
+    rows, cols, _, _ = _image_axes(image)
+
+    def keep(value: Any) -> Any:
+        return value
+
+    labels = [_AXIS_LABELS.get(cols, f"{cols} [m]"), _AXIS_LABELS.get(rows, f"{rows} [m]")]
+    maps = [keep, keep]
+    if image.attrs.get("grid_kind") != "plane" or "grid_axis_u" not in image.attrs:
+        return maps[0], maps[1], labels[0], labels[1]
+    origin = vector_attr(image, "grid_origin")
+    for k, name in enumerate((cols, rows)):
+        if name not in ("u", "v"):
+            continue
+        direction = vector_attr(image, f"grid_axis_{name}")
+        world = _world_axis(direction)
+        if world is None:
+            along = ", ".join(f"{v:.3g}" for v in direction)
+            start = ", ".join(f"{v:.3g}" for v in origin)
+            labels[k] = f"{name} [m] along ({along}) from ({start})"
+            continue
+        i, sign = world
+        maps[k] = (lambda value, o=float(origin[i]), s=sign: o + s * np.asarray(value))
+        labels[k] = f"{_WORLD[i]} [m]"
+    return maps[0], maps[1], labels[0], labels[1]
+
+
 
 def _mark_location(image: xr.Dataset, position: ArrayLike) -> tuple[float, float] | None:
     """Image coordinates (column, row) of a mark: 2 numbers as-is, 3 numbers a world point."""
@@ -210,13 +261,14 @@ def plot_image(image: xr.Dataset, ax: Axes | None = None, dynamic_range_db: floa
     """
     image, channel_note = first_channel(image)
     rows, cols, y, x = _image_axes(image)
+    show_x, show_y, xlabel, ylabel = image_display_axes(image)
     values = _db(image["image"].transpose(rows, cols).values)
     ax = _new_axes(ax)
     shown = ax.imshow(values, origin="lower", aspect="equal", cmap="gray",
                       vmin=-dynamic_range_db, vmax=0.0, interpolation="nearest",
-                      extent=_extent(x, y))
-    ax.set_xlabel(_AXIS_LABELS.get(cols, f"{cols} [m]"))
-    ax.set_ylabel(_AXIS_LABELS.get(rows, f"{rows} [m]"))
+                      extent=_extent(show_x(x), show_y(y)))
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
     algorithm = str(image.attrs.get("algorithm", "")).upper()
     ax.set_title(title if title is not None
                  else f"focused image {algorithm}".strip() + channel_note)
@@ -228,6 +280,12 @@ def plot_image(image: xr.Dataset, ax: Axes | None = None, dynamic_range_db: floa
                           "the image; not drawn", stacklevel=2)
             continue
         colour = f"C{(index + 1) % 10}"
+        where = (float(show_x(where[0])), float(show_y(where[1])))
+        if name.startswith(METRICS_MARK):  # a circle: it may sit on a target's cross
+            ax.plot(*where, marker="o", markersize=16, markeredgewidth=1.5, color=colour,
+                    markerfacecolor="none", linestyle="none", label=name)
+            ax.annotate(name, where, xytext=(8, -14), textcoords="offset points", color=colour)
+            continue
         ax.plot(*where, marker="+", markersize=14, markeredgewidth=1.5, color=colour,
                 linestyle="none", label=name)
         ax.annotate(name, where, xytext=(6, 6), textcoords="offset points", color=colour)
@@ -494,14 +552,22 @@ def plot_file(path: str | os.PathLike, out: str | os.PathLike, overwrite: bool =
     return save_figure(figure, out, overwrite=overwrite)
 
 
+METRICS_MARK = "metrics target"
+"""Name of the mark of the point where the metrics are measured (drawn as a circle)."""
+
+
 def target_marks(image: xr.Dataset) -> dict[str, list[float]]:
     """Marks for the point targets recorded in an image product (``target_positions``,
-    :mod:`mitsar.products.requests`) that fall inside it."""
+    :mod:`mitsar.products.requests`) and for its metrics target (``metrics_target``, named
+    :data:`METRICS_MARK`), those that fall inside it."""
     positions = target_positions(image)
     marks = {}
     for index, position in enumerate(positions):
         name = "target" if len(positions) == 1 else f"target {index}"
         marks[name] = [float(v) for v in position]
+    metrics_target = metrics_request(image)[0]
+    if metrics_target is not None and len(metrics_target) == 3:
+        marks[METRICS_MARK] = [float(v) for v in metrics_target]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         return {k: v for k, v in marks.items() if _mark_location(image, v) is not None}
