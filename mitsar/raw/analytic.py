@@ -16,13 +16,13 @@ import warnings
 from collections.abc import Iterator, Sequence
 from typing import Any
 
-import drjit as dr
 import numpy as np
 import xarray as xr
 from numpy.typing import NDArray
 from tqdm.auto import tqdm
 
 from mitsar.backend import array_namespace, namespace_of, safe_width
+from mitsar.backend import drjit as dr  # imported when a kernel runs (LazyModule)
 from mitsar.budget import require_memory
 from mitsar.checks import integer
 from mitsar.checks import seed as check_seed
