@@ -8,6 +8,7 @@ import importlib.util
 
 import numpy as np
 import pytest
+from lxml import etree
 
 import mitsar
 from mitsar.errors import ParameterError
@@ -203,8 +204,10 @@ def test_lab_origin_round_trip():
 def test_bad_inputs_name_the_parameter(raw, image, tmp_path):
     with pytest.raises(ParameterError, match="image_product"):
         write_sicd(raw, tmp_path / "x.nitf", raw=raw)
+    with pytest.raises(ParameterError, match="'raw'"):  # no raw, and no aperture carried
+        write_sicd(image.drop_vars("aperture_position"), tmp_path / "x.nitf")
     with pytest.raises(ParameterError, match="'raw'"):
-        write_sicd(image, tmp_path / "x.nitf")
+        write_sicd(image, tmp_path / "x.nitf", raw=image)
     with pytest.raises(ParameterError, match="raw_product"):
         write_cphd(image, tmp_path / "x.cphd")
     existing = tmp_path / "exists.nitf"
@@ -219,14 +222,70 @@ def test_bad_inputs_name_the_parameter(raw, image, tmp_path):
         read_cphd(existing, form="bogus")
 
 
+def _sicd_xml(path):
+    with path.open("rb") as handle, sksicd.NitfReader(handle) as reader:
+        return reader.metadata.xmltree.getroot()
+
+
+def xml_differences(a, b, where: str = "", rtol: float = 1e-9) -> list[str]:
+    """Elements of two SICD XML trees that differ: tag, attributes, children, or text (numbers
+    relative ``rtol`` of max(1, |a|)); ``ImageCreation`` (the time of writing) left out."""
+    if a.tag != b.tag or dict(a.attrib) != dict(b.attrib) or len(a) != len(b):
+        return [f"{where}{a.tag} vs {b.tag}"]
+    here = f"{where}{etree.QName(a).localname}"
+    if here.endswith("ImageCreation"):
+        return []
+    found = []
+    text_a, text_b = (a.text or "").strip(), (b.text or "").strip()
+    if text_a != text_b:
+        try:
+            if abs(float(text_a) - float(text_b)) > rtol * max(1.0, abs(float(text_a))):
+                found.append(f"{here}: {text_a} vs {text_b}")
+        except ValueError:
+            found.append(f"{here}: {text_a!r} vs {text_b!r}")
+    for child_a, child_b in zip(a, b, strict=True):
+        found += xml_differences(child_a, child_b, here + "/", rtol)
+    return found
+
+
 def test_cli_export(raw, image, tmp_path):
+    """``mitsar export image.nc -f sicd`` works without ``--raw`` (the image carries its
+    aperture, issue 25 item 3) and gives the metadata ``--raw`` gives; sicdcheck exits 0."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
     from mitsar.cli import main
 
     mitsar.save(raw, tmp_path / "raw.nc")
     mitsar.save(image, tmp_path / "image.nc")
     assert main(["export", str(tmp_path / "image.nc"), "-f", "sicd", "--raw",
                  str(tmp_path / "raw.nc"), "-o", str(tmp_path / "out.nitf"), "-q"]) == 0
+    assert main(["export", str(tmp_path / "image.nc"), "-f", "sicd", "-o",
+                 str(tmp_path / "alone.nitf"), "-q"]) == 0
     assert main(["export", str(tmp_path / "raw.nc"), "-f", "cphd", "-o",
                  str(tmp_path / "out.cphd"), "-q"]) == 0
-    assert (tmp_path / "out.nitf").stat().st_size > 0
     assert (tmp_path / "out.cphd").stat().st_size > 0
+    with_raw, alone = _sicd_xml(tmp_path / "out.nitf"), _sicd_xml(tmp_path / "alone.nitf")
+    assert len(alone.findall(".//*")) > 100  # a whole SICD, not an empty tree
+    assert xml_differences(with_raw, alone) == []
+    checker = Path(sys.executable).parent / "sicdcheck"
+    if checker.exists():  # 0.1 m resolution at 0.05 m pixels: oversampling 2, no OSR Warning
+        result = subprocess.run([str(checker), str(tmp_path / "alone.nitf")],
+                                capture_output=True, text=True, check=False)
+        assert result.returncode == 0, result.stdout[-3000:]
+
+
+def test_a_different_raw_is_used_and_said(raw, image, tmp_path):
+    """A raw whose track is not the image's aperture: a MitsarWarning, and the SICD's ARP
+    follows the raw given."""
+    from mitsar.errors import MitsarWarning
+
+    shifted = raw.copy()
+    shifted["platform_position"] = raw["platform_position"] + np.array([0.0, 0.0, 0.01])
+    with pytest.warns(MitsarWarning, match="differs from the aperture"):
+        path = write_sicd(image, tmp_path / "shifted.nitf", raw=shifted)
+    plain = write_sicd(image, tmp_path / "plain.nitf")
+    arp = [[float(_sicd_xml(p).findtext(f"{{*}}SCPCOA/{{*}}ARPPos/{{*}}{a}")) for a in "XYZ"]
+           for p in (path, plain)]
+    assert np.linalg.norm(np.subtract(*arp)) == pytest.approx(0.01, abs=1e-4)

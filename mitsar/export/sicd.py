@@ -12,7 +12,8 @@ What is written (the mapping; details in docs/products.md)
   Vol. 1 §4.2): ``UVectECF`` from the pixel positions, ``SS`` the pixel spacing,
   ``ImpRespBW = 1 / rho`` from the image's ``range_resolution`` / ``azimuth_resolution``,
   ``ImpRespWid`` the -3 dB width of the window's response (0.8859 rho for "rect", SICD's
-  KAPFAC), ``WgtType`` the window the focuser applied (attributes ``range_window``, ``window``).
+  KAPFAC), ``WgtType`` and ``WgtFunct`` the window the focuser applied (attributes
+  ``range_window``, ``window``; :func:`weighting`).
   Back-projection leaves the carrier ``exp(-j 2 pi k l . x)``, ``k = 2 f_c / c``, in the pixels
   (docs/conventions.md, BPA de-rotation): their spectrum, taken with the DFT exponent
   ``+j`` (``Sgn = +1``), sits at the spatial frequency ``k l(COA) . u`` of each pixel's own
@@ -30,7 +31,8 @@ What is written (the mapping; details in docs/products.md)
 * ImageFormation: ``ImageFormAlgo`` "RMA" for RDA/WDA/FSA, "OTHER" for BPA/FFBP (attribute
   ``algorithm``), processed band and time from the raw product.
 * Geometry: ``Position/ARPPoly`` a polynomial fit (order <= 5) of the mid-sweep antenna
-  positions against time, ``GeoData/SCP`` the centre pixel, all in ECF through
+  positions against time (the aperture the image carries, :func:`aperture_of`, or the raw
+  product passed), ``GeoData/SCP`` the centre pixel, all in ECF through
   :class:`mitsar.export.frame.LabOrigin`, recorded with the radar parameters in
   ``CollectionInfo/Parameter``.
 """
@@ -40,12 +42,13 @@ from __future__ import annotations
 import datetime as _dt
 import math
 import os
+import warnings
 from pathlib import Path
 
 import numpy as np
 import xarray as xr
 
-from mitsar.errors import ParameterError
+from mitsar.errors import MitsarWarning, ParameterError
 from mitsar.export.frame import DEFAULT_ORIGIN, LabOrigin
 from mitsar.export.optional import require_sarkit
 from mitsar.focus.aperture import aperture_half_width, mean_track_frame
@@ -55,8 +58,8 @@ from mitsar.io import atomic_writer
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
 from mitsar.version import __version__
 
-__all__ = ["SICD_NAMESPACE", "centre_of_aperture", "impulse_width_factor", "sicd_layout",
-           "sicd_pixels", "write_sicd"]
+__all__ = ["SICD_NAMESPACE", "WEIGHT_SAMPLES", "aperture_of", "centre_of_aperture",
+           "impulse_width_factor", "sicd_layout", "sicd_pixels", "weighting", "write_sicd"]
 
 SICD_NAMESPACE = "urn:SICD:1.4.0"
 """XML namespace of SICD 1.4.0."""
@@ -69,6 +72,48 @@ WINDOW_NAMES = {"rect": "UNIFORM", "hamming": "HAMMING", "hann": "HANNING", "tay
 
 COLLECT_START = _dt.datetime(2000, 1, 1, tzinfo=_dt.UTC)
 """Collection start written for simulations (no absolute time)."""
+
+WEIGHT_SAMPLES = 64
+"""Samples of ``Grid/{Row,Col}/WgtFunct`` (uniformly spaced across ImpRespBW, ends included)."""
+
+APERTURE_VARIABLES = {"platform_position": "aperture_position",
+                      "platform_velocity": "aperture_velocity",
+                      "boresight": "aperture_boresight", "attitude": "aperture_attitude"}
+"""Raw product variable -> the image product's copy of it (:func:`mitsar.focus`)."""
+
+
+def weighting(window: str) -> dict:
+    """SICD ``WgtType`` and ``WgtFunct`` (NGA.STND.0024-1 Vol. 1 §4.2, Grid) of a mitsar window.
+
+    ``WgtFunct`` holds the window the focusers apply across the processed band
+    (:func:`mitsar.focus.windows.evaluate_window` of
+    :func:`mitsar.focus.windows.window_coefficients`, the same cosine series the kernels
+    evaluate) at :data:`WEIGHT_SAMPLES` points uniformly spaced from -ImpRespBW/2 to
+    +ImpRespBW/2, ends included; none for the uniform window (SICD needs it only for a
+    non-uniform one). ``WgtType`` names it with the parameters sarpy reads to rebuild it
+    (``sarpy.io.complex.sicd_elements.Grid.DirParamType.define_weight_function``): Hamming's
+    pedestal ``COEFFICIENT = 0.54``; Taylor's ``NBAR = 4`` and ``SLL = 35`` (the sidelobe
+    suppression in dB, positive as ``scipy.signal.windows.taylor`` reads it).
+
+    Parameters
+    ----------
+    window : {"rect", "hamming", "hann", "taylor"}
+
+    Returns
+    -------
+    dict
+        ``{"WgtType": {...}}`` plus ``"WgtFunct"`` (ndarray) for a non-uniform window.
+    """
+    name = WINDOW_NAMES.get(window, window.upper())
+    parameters = {"HAMMING": {"COEFFICIENT": "0.54"},
+                  "TAYLOR": {"NBAR": "4", "SLL": "35"}}.get(name, {})
+    result: dict = {"WgtType": {"WindowName": name}}
+    if parameters:
+        result["WgtType"]["Parameter"] = [(key, value) for key, value in parameters.items()]
+    if name != "UNIFORM":
+        result["WgtFunct"] = evaluate_window(window_coefficients(window),
+                                             np.linspace(0.0, 1.0, WEIGHT_SAMPLES))
+    return result
 
 
 def impulse_width_factor(window: str) -> float:
@@ -312,6 +357,56 @@ def _fit_poly2d(x: np.ndarray, y: np.ndarray, values: np.ndarray, order: int) ->
     return coefficients
 
 
+def aperture_of(image_product: xr.Dataset) -> xr.Dataset | None:
+    """The aperture an image was formed from, as the raw product's track variables.
+
+    :func:`mitsar.focus` copies the raw product's mid-sweep ``platform_position``,
+    ``platform_velocity``, ``boresight`` and ``attitude`` into the image as ``aperture_*``
+    (dim ``aperture``), with ``aperture_time`` (mid-sweep time [s]) and ``raw_normalized``;
+    this returns them as a track-only raw product (``slow_time`` = sweep start, the radar and
+    look attributes of the image), everything :func:`write_sicd` reads of ``raw``. None for an
+    image without them (written by a mitsar before issue 25, or assembled by hand).
+    """
+    names = ["aperture_time", *APERTURE_VARIABLES.values()]
+    if any(name not in image_product.variables for name in names):
+        return None
+    radar = Radar.from_attrs(image_product.attrs)
+    data = {raw_name: (("sweep", image_product[name].dims[-1]), image_product[name].values)
+            for raw_name, name in APERTURE_VARIABLES.items()}
+    data["slow_time"] = ("sweep", np.asarray(image_product["aperture_time"].values, float)
+                         - radar.sweep_duration / 2)
+    attrs = {key: value for key, value in image_product.attrs.items()
+             if key.startswith(("radar_", "look_"))}
+    return xr.Dataset(data, attrs={**attrs, "product": "raw",
+                                   "normalized": int(image_product.attrs.get("raw_normalized",
+                                                                             0))})
+
+
+def _track_source(image: xr.Dataset, raw: xr.Dataset | None) -> xr.Dataset:
+    """``raw`` when given (checked against the aperture the image carries), else the image's
+    own aperture (:func:`aperture_of`)."""
+    carried = aperture_of(image)
+    if raw is None:
+        if carried is None:
+            raise ParameterError("write_sicd", "raw", "the raw product the image was focused "
+                                 "from, or an image that carries its aperture (aperture_* "
+                                 "variables: focus it with this mitsar)", None)
+        return carried
+    if not isinstance(raw, xr.Dataset) or raw.attrs.get("product") != "raw":
+        raise ParameterError("write_sicd", "raw", "None or the raw product the image was "
+                             "focused from (SICD needs the antenna positions and times)",
+                             type(raw).__name__)
+    if carried is not None:
+        ours, theirs = (np.asarray(d["platform_position"].values, float) for d in (carried, raw))
+        if ours.shape != theirs.shape or not np.allclose(ours, theirs, rtol=0, atol=1e-6):
+            warnings.warn(MitsarWarning(
+                "write_sicd: raw's track differs from the aperture the image was formed from "
+                f"({theirs.shape[0]} against {ours.shape[0]} sweeps, or positions more than "
+                "1 um apart; e.g. a motion-compensated reference track): the SICD describes "
+                "raw's; leave raw out to describe the image's own"), stacklevel=3)
+    return raw
+
+
 def write_sicd(image_product: xr.Dataset, path: str | os.PathLike, *,
                raw: xr.Dataset | None = None, origin: LabOrigin = DEFAULT_ORIGIN,
                overwrite: bool = False) -> Path:
@@ -323,9 +418,12 @@ def write_sicd(image_product: xr.Dataset, path: str | os.PathLike, *,
         Image product on a slant or plane grid.
     path : path-like
         Output file (conventionally ``*.nitf``), written atomically.
-    raw : xarray.Dataset
-        The raw product the image was focused from: SICD needs the collection geometry
-        (antenna positions and times), which the image product does not hold.
+    raw : xarray.Dataset, optional
+        The raw product the image was focused from. SICD needs the collection geometry
+        (antenna positions, velocities, boresights and times), which an image focused by
+        :func:`mitsar.focus` carries itself (:func:`aperture_of`): the same metadata either
+        way. A raw whose track differs from the image's gets a :class:`MitsarWarning` and is
+        used.
     origin : LabOrigin
         Where the lab frame sits on the Earth.
     overwrite : bool
@@ -338,15 +436,13 @@ def write_sicd(image_product: xr.Dataset, path: str | os.PathLike, *,
     Raises
     ------
     ParameterError
-        For a non-image, an image on a points grid, or a missing ``raw``.
+        For a non-image, an image on a points grid, or no ``raw`` for an image that does not
+        carry its aperture.
     OutputExistsError
         If ``path`` exists and ``overwrite`` is false.
     """
     image = _check_image(image_product)
-    if not isinstance(raw, xr.Dataset) or raw.attrs.get("product") != "raw":
-        raise ParameterError("write_sicd", "raw", "the raw product the image was focused "
-                             "from (SICD needs the antenna positions and times)",
-                             None if raw is None else type(raw).__name__)
+    raw = _track_source(image, raw)
     if not isinstance(origin, LabOrigin):
         raise ParameterError("write_sicd", "origin", "a LabOrigin", type(origin).__name__)
     sksicd = require_sarkit("sarkit.sicd")
@@ -394,7 +490,7 @@ def write_sicd(image_product: xr.Dataset, path: str | os.PathLike, *,
     corner_rows = np.array([0, 0, rows - 1, rows - 1]) - scp_index[0]
     corner_cols = np.array([0, cols - 1, cols - 1, 0]) - scp_index[1]
 
-    def grid_dim(u: np.ndarray, spacing: float, resolution: float, weighting: str) -> dict:
+    def grid_dim(u: np.ndarray, spacing: float, resolution: float, applied: str) -> dict:
         # mitsar's pixels hold exp(-j 2 pi k l.x) (back-projection leaves the carrier,
         # docs/conventions.md): Sgn = +1, the support at k = (2 f_c / c) l(COA) . u, seen in
         # the pixels modulo 1/SS; KCtr the multiple of 1/SS nearest k at the SCP and
@@ -413,10 +509,9 @@ def write_sicd(image_product: xr.Dataset, path: str | os.PathLike, *,
         if low < -nyquist or high > nyquist:
             low, high = -nyquist, nyquist
         return {"UVectECF": origin.vectors_to_ecf(u), "SS": spacing,
-                "ImpRespWid": impulse_width_factor(weighting) / bandwidth, "Sgn": 1,
+                "ImpRespWid": impulse_width_factor(applied) / bandwidth, "Sgn": 1,
                 "ImpRespBW": bandwidth, "KCtr": k_ctr, "DeltaK1": low, "DeltaK2": high,
-                "DeltaKCOAPoly": delta_poly,
-                "WgtType": {"WindowName": WINDOW_NAMES.get(weighting, weighting.upper())}}
+                "DeltaKCOAPoly": delta_poly, **weighting(applied)}
 
     row_is_range = layout["row_dim"] == image["image"].dims[
         int(np.argmax(np.abs(image.attrs.get("range_axis", [0.0, 1.0]))))]
