@@ -44,8 +44,9 @@ __all__ = [
 #: infinite extent, i.e. the whole cut of a large chip (see :func:`measure_impulse_response`).
 ISLR_EXTENTS: dict[str, float] = {"paper": 5.0, "isce3": 11.0, "chip": math.inf, "inf": math.inf}
 
-#: How the ISLR extent is named in the Python API and on the command line (``mitsar metrics``).
-EXTENT_OPTION = "islr_extent (--islr-extent)"
+#: How the ISLR extent is named in the experiment (``[metrics] islr_extent``, also
+#: ``--set metrics.islr_extent=...``), the Python API and ``mitsar metrics --islr-extent``.
+EXTENT_OPTION = "islr_extent ([metrics] islr_extent, --islr-extent)"
 
 
 class MeasurementError(MitsarError, ValueError):

@@ -12,7 +12,8 @@ Trust (docs/metrics.md): the peak is searched only within ``search_radius_m`` of
 response's own axes, recorded by the grid (:func:`mitsar.focus.grid.response_frame`: under
 squint the response is rotated against a slant grid's axes), or along the grid's axes on
 request; any other scatterer within :data:`NEIGHBOUR_DB` of the peak inside the measurement
-window is reported in ``warnings``.
+window, brighter than the target's own sidelobes and the background's speckle reach, is reported
+in ``warnings``, at the focusing grid's pixel where it is imaged.
 """
 
 from __future__ import annotations
@@ -63,6 +64,15 @@ NEIGHBOUR_DB = -20.0
 #: Margin over the envelope of the target's own (rectangular-spectrum) sidelobes above which a
 #: local maximum counts as another scatterer, dB.
 OWN_SIDELOBE_MARGIN_DB = 3.0
+#: Chance that the brightest speckle of the background in the measurement window is taken for a
+#: second scatterer: a local maximum counts only above ``ln(N / SPECKLE_FALSE_ALARM)`` times the
+#: background's mean power, N the window's resolution cells (fully developed speckle and
+#: thermal noise have exponentially distributed power, P(p > t mean) = exp(-t); Goodman,
+#: *Speckle Phenomena in Optics*, 2007, §3.2).
+SPECKLE_FALSE_ALARM = 0.01
+#: The background's mean power is estimated outside this many cells from the peak (beyond the
+#: main lobe and first sidelobes of any window), from the median (mean = median / ln 2).
+BACKGROUND_INNER_CELLS = 3.0
 #: Directions of the cuts: the response's own axes (default) or the grid's recorded axes.
 CUT_AXES = ("response", "grid")
 #: Minimum extent, in cells either side of the peak, a cut must cover to be measured.
@@ -167,17 +177,25 @@ def _envelope(cells: NDArray[np.float64]) -> NDArray[np.float64]:
 
 def _neighbours(power: NDArray[np.float64], peak_power: float,
                 cells: dict[str, NDArray[np.float64]], extent: float, factor: int,
-                level_db: float) -> list[tuple[tuple[int, int], float, float, float]]:
+                level_db: float) -> tuple[list[tuple[tuple[int, int], float, float, float,
+                                                     float]], float]:
     """Local maxima of another scatterer within ``level_db`` of the peak in the window.
 
     A local maximum counts when it is at least ``level_db`` relative to the peak, exceeds the
-    envelope of the target's own separable sidelobes (:func:`_envelope` per axis, Cumming &
-    Wong 2005 §2.6) by :data:`OWN_SIDELOBE_MARGIN_DB`, and lies within ± ``extent`` cells along
-    both response axes (the whole chip for an infinite extent) and off the chip border.
+    level that the target's own sidelobes and the background's speckle reach together there:
+    their amplitudes added in phase, ``(sqrt(own) + sqrt(speckle))^2``, with ``own`` the
+    envelope of the target's separable sidelobes (:func:`_envelope` per axis, Cumming & Wong
+    2005 §2.6) raised by :data:`OWN_SIDELOBE_MARGIN_DB` and ``speckle`` the level the
+    background's speckle stays below (:func:`_speckle_threshold`), so that neither a sidelobe
+    lifted by clutter nor the brightest speckle of a -20 dB background counts; and it lies
+    within ± ``extent`` cells along both response axes (the whole chip for an infinite extent)
+    and off the chip border.
 
     Returns
     -------
-    list of ((i0, i1), level dB, range cells, azimuth cells), strongest first.
+    list of ((i0, i1), level dB, range cells, azimuth cells, bound dB), strongest first (bound:
+    what sidelobes and speckle reach there); the background's mean power relative to the
+    peak, dB.
     """
     stride = max(1, factor // 8)
     coarse = power[::stride, ::stride]
@@ -189,13 +207,50 @@ def _neighbours(power: NDArray[np.float64], peak_power: float,
     relative = coarse / peak_power
     own = _envelope(u) * _envelope(w) * 10 ** (OWN_SIDELOBE_MARGIN_DB / 10)
     window = (np.abs(u) <= extent) & (np.abs(w) <= extent)
-    found = local & window & (relative >= 10 ** (level_db / 10)) & (relative > own)
+    background, speckle = _speckle_threshold(relative, u, w, window)
+    bound = (np.sqrt(own) + math.sqrt(speckle)) ** 2
+    found = local & window & (relative >= 10 ** (level_db / 10)) & (relative > bound)
     out = []
     for i0, i1 in zip(*np.nonzero(found), strict=True):
         out.append(((int(i0) * stride, int(i1) * stride),
                     10.0 * math.log10(float(relative[i0, i1])), float(u[i0, i1]),
-                    float(w[i0, i1])))
-    return sorted(out, key=lambda item: -item[1])
+                    float(w[i0, i1]), _db(float(bound[i0, i1]))))
+    return sorted(out, key=lambda item: -item[1]), _db(background)
+
+
+def _db(ratio: float) -> float:
+    """10 log10 of a power ratio (-inf for 0)."""
+    return 10.0 * math.log10(ratio) if ratio > 0 else -math.inf
+
+
+def _speckle_threshold(relative: NDArray[np.float64], u: NDArray[np.float64],
+                       w: NDArray[np.float64], window: NDArray[np.bool_]) -> tuple[float, float]:
+    """Mean power of the background around the target and the level its speckle stays below.
+
+    The background (clutter speckle and thermal noise: exponentially distributed power,
+    Goodman, *Speckle Phenomena in Optics*, 2007, §3.2) has mean ``median / ln 2``, the median
+    taken over the measurement window beyond :data:`BACKGROUND_INNER_CELLS` from the peak
+    (over the chip beyond them when that is less than a quarter of the window): local, as the
+    antenna beam weights the clutter around its centre, and where the target's own response is
+    only its two sidelobe ridges (a small part of the area; a few other scatterers do not move
+    a median). The brightest of N
+    independent cells exceeds ``t`` times that mean with probability
+    ``1 - (1 - exp(-t))^N`` ≈ ``N exp(-t)``; ``t = ln(N / SPECKLE_FALSE_ALARM)`` with N the
+    window's area in resolution cells.
+
+    Returns
+    -------
+    background, threshold : float
+        Power relative to the peak [1]: the background's mean and the threshold.
+    """
+    ring = np.maximum(np.abs(u), np.abs(w)) > BACKGROUND_INNER_CELLS
+    if np.count_nonzero(ring & window) >= 0.25 * np.count_nonzero(window):
+        ring &= window  # the background where the neighbours are sought (beam-weighted)
+    if not ring.any():
+        return 0.0, 0.0
+    background = float(np.median(relative[ring])) / math.log(2.0)
+    cells = max(float(np.ptp(u[window]) * np.ptp(w[window])) if window.any() else 0.0, 1.0)
+    return background, background * math.log(cells / SPECKLE_FALSE_ALARM)
 
 
 def measure_impulse_response(
@@ -371,7 +426,8 @@ def measure_impulse_response(
                 f"{np.round(geometry.axes[name], 4).tolist()} in {geometry.dims}) for "
                 f"{needed:g} cells of {res:.4f} m; the target is too close to the image edge "
                 f"to measure: the {name} cut reaches only {reach * res:.3f} m ({reach:.2f} "
-                f"cells) on one side. Extend the focusing grid, or lower {EXTENT_OPTION}",
+                f"cells) on one side. Extend the focusing grid ([focus.grid], mitsar focus "
+                f"--grid), or lower {EXTENT_OPTION}",
                 islr_extent)
         metrics = measure_cut(cut, step_m / res, islr_extent)
         nulls[name] = (metrics["null_left_cells"], metrics["null_right_cells"])
@@ -392,16 +448,20 @@ def measure_impulse_response(
     own_cells = (cells if frame is geometry
                  else response_cells(power.shape, peak, fine_spacing, frame))
     neighbours = []
-    for (i0, i1), level, u, w in _neighbours(power, peak_power, own_cells, extent, factor,
-                                             neighbour_db):
+    found, background_db = _neighbours(power, peak_power, own_cells, extent, factor,
+                                       neighbour_db)
+    for (i0, i1), level, u, w, bound_db in found:
         where = interpolate_position(geometry.position, lo + np.array([i0, i1]) / factor)
         gap = float(np.linalg.norm(where - peak_position))
         neighbours.append({"position": [float(v) for v in where], "level_db": level,
-                           "distance_m": gap, "offset_cells": [u, w]})
+                           "distance_m": gap, "offset_cells": [u, w],
+                           "background_db": background_db})
         messages.append(
-            f"a second scatterer at {np.round(where, 3).tolist()} m, {level:+.1f} dB relative "
-            f"to the peak and {gap:.3f} m from it ({u:+.1f} range, {w:+.1f} azimuth cells), "
-            f"lies inside the measurement window ({EXTENT_OPTION}={islr_extent!r}): the "
+            f"a second scatterer, imaged at the pixel {np.round(where, 3).tolist()} m of the "
+            f"focusing grid ({gap:.3f} m from the peak, {u:+.1f} range, {w:+.1f} azimuth "
+            f"cells), {level:+.1f} dB relative to the peak where the target's own sidelobes "
+            f"and the background's speckle (mean {background_db:.1f} dB) reach {bound_db:.1f} "
+            f"dB, lies inside the measurement window ({EXTENT_OPTION}={islr_extent!r}): the "
             "sidelobe metrics include its response"
         )
     noise = {}

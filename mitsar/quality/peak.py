@@ -74,6 +74,8 @@ def fine_peak(power: NDArray[np.float64], inside: NDArray[np.bool_], search_m: f
             f"no peak within search_radius_m={search_m:.4g} m of the target: the brightest "
             f"sample there is on the search boundary, {float(distance[k]):.4f} m away, rising "
             "towards a brighter response outside (a stronger neighbour, or the target farther "
-            "off than the radius); check the target position or raise search_radius_m"
+            "off than the radius); check the target position ([metrics] target in the "
+            "experiment, mitsar metrics --target X Y Z), or widen the search in Python: "
+            "mitsar.measure_impulse_response(image, target, search_radius_m=...)"
         )
     return int(k[0]), int(k[1])
