@@ -111,3 +111,37 @@ def test_an_oblique_plane_states_its_axes_in_world_terms():
     assert ax.get_xlabel() == "u [m] along (0.6, 0.8, 0) from (14.4, 7.3, 0)"
     assert ax.get_ylabel().startswith("v [m] along (-0.8, 0.6, 0)")
     plt.close(ax.figure)
+
+
+def test_sweep_figures_label_keys_and_quantities_in_words_with_units(tmp_path,
+                                                                    monkeypatch):
+    """``mitsar sweep`` figures were labelled ``radar.bandwidth`` and ``range_irw_cells
+    [cells]``: now "radar bandwidth [Hz]" and "range IRW [cells]"."""
+    from mitsar.experiment.sweep import QUANTITIES, plot_sweep
+    from mitsar.plots.labels import key_label, quantity_label
+
+    assert key_label("radar.bandwidth") == "radar bandwidth [Hz]"
+    assert key_label("background.cell_rcs_db") == "background cell RCS [dB]"
+    assert key_label("look.off_nadir_deg") == "look off nadir [deg]"
+    assert key_label("simulation.seed") == "simulation seed"
+    assert quantity_label("peak_offset_m") == "peak offset [m]"
+    assert quantity_label("fraction_resolved", "%") == "fraction resolved [%]"
+    bandwidth = [1.0e9, 1.5e9]
+    units = {"cells": "cells", "db": "dB", "m": "m"}
+    data = {q: (("radar.bandwidth", "realisation", "algorithm"), np.ones((2, 2, 1)),
+                {"units": units[q.rsplit("_", 1)[1]]}) for q in QUANTITIES}
+    table = xr.Dataset(data, coords={"radar.bandwidth": bandwidth, "realisation": [0, 1],
+                                     "algorithm": ["bpa"]},
+                       attrs={"varied": json.dumps(["radar.bandwidth"])})
+    seen = []
+    original = plt.Figure.savefig
+
+    def record(figure, *args, **kwargs):
+        seen.append([(ax.get_xlabel(), ax.get_ylabel()) for ax in figure.axes])
+        return original(figure, *args, **kwargs)
+
+    monkeypatch.setattr(plt.Figure, "savefig", record)
+    written = plot_sweep(table, tmp_path)
+    assert len(written) == len(QUANTITIES) - 1
+    assert ("radar bandwidth [Hz]", "range IRW [cells]") in [labels[0] for labels in seen]
+    assert ("radar bandwidth [Hz]", "peak offset [m]") in [labels[0] for labels in seen]

@@ -63,6 +63,7 @@ from mitsar.experiment.montecarlo import (
 from mitsar.focus.dispatch import ALGORITHMS
 from mitsar.io import atomic_writer, save
 from mitsar.plots.figures import save_figure
+from mitsar.plots.labels import key_label, quantity_label
 from mitsar.version import __version__
 
 __all__ = ["PointMeasure", "Variation", "measure_table", "parse_variation", "run_sweep",
@@ -504,7 +505,8 @@ def plot_measure(table: xr.Dataset, measure: PointMeasure, folder: Path,
             ax.plot(x if numeric else np.arange(len(x)), cut.values, marker="o", label=text)
         if not numeric:
             ax.set_xticks(np.arange(len(x)), [str(v) for v in x])
-        ax.set(xlabel=first, ylabel=f"{quantity} [{measure.units}]", title=measure.name)
+        ax.set(xlabel=key_label(first), ylabel=quantity_label(quantity, measure.units),
+               title=measure.name)
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7)
         written.append(save_figure(figure, folder / f"{quantity}.png", overwrite=overwrite))
@@ -544,7 +546,8 @@ def plot_sweep(table: xr.Dataset, folder: Path, overwrite: bool = True,
                             capsize=3, label=label)
             if not numeric:
                 ax.set_xticks(np.arange(len(x)), [str(v) for v in x])
-            ax.set(xlabel=first, ylabel=f"{quantity} [{table[quantity].attrs['units']}]",
+            ax.set(xlabel=key_label(first),
+                   ylabel=quantity_label(quantity, table[quantity].attrs["units"]),
                    title=str(algorithm).upper())
             ax.grid(alpha=0.3)
             if others:
