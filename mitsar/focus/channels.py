@@ -14,6 +14,20 @@ The image product gains ``channel`` in front of the grid's dims, the channels' b
 ``transmitter_offset`` / ``receiver_offset`` (channel, xyz) [m] and the processed aperture's
 track (``aperture_position`` (aperture, xyz) [m], ``aperture_attitude`` (aperture, angle)
 [rad], ``aperture_time`` (aperture) [s], at mid-sweep), which the interferometry stage reads.
+
+RDA, WDA and FSA (:data:`SPECTRAL_ALGORITHMS`) model a monostatic antenna on a straight
+track. They focus every channel with one common reference: the same track (the body origin's,
+``platform_position``), the same slant grid (so the same reference range, the centre of its
+range span) and the same pixels. Before that, :func:`compensate_channel` moves each channel's
+own bistatic path onto the monostatic path from the track point, as motion compensation does
+for a track's deviation (:mod:`mitsar.focus.mocomp`; Moreira & Huang 1994's two steps): at
+sweep s the half-path error ``e(s, r) = (|t_s - Q| + |Q - r_s|) / 2 - |p_s - Q|`` of the point
+``Q(s, r)`` of the slant grid's surface at distance ``r`` from the track, seen from ``p_s`` at
+the Doppler centroid, is removed, in delay and rate at the grid's centre range and in phase per
+range bin. A scatterer on the grid's surface then focuses where the monostatic one would (the
+channels co-registered) with the phase ``(2 pi / lambda)(L_k(q) - L_k(p))`` back-projection gives
+pixel p (docs/interferometry.md §8, "Spectral focusing of channels"). What remains is ``e``'s
+change with the direction sine within the processed aperture, evaluated at the centroid only.
 """
 
 from __future__ import annotations
@@ -25,14 +39,35 @@ import xarray as xr
 
 from mitsar.errors import ParameterError
 from mitsar.focus.autofocus.apply import correct_raw
-from mitsar.focus.grid import Grid, PointsGrid, VolumeGrid
+from mitsar.focus.bp_setup import channel_phase_centres
+from mitsar.focus.grid import Grid, PointsGrid, SlantGrid, VolumeGrid
+from mitsar.focus.motion import centroid_sines
+from mitsar.model.radar import SPEED_OF_LIGHT, Radar
+from mitsar.model.signal import fast_time
 from mitsar.products.raw import radar_of
 
-__all__ = ["CHANNEL_ALGORITHMS", "channel_view", "focus_channels"]
+__all__ = ["CHANNEL_ALGORITHMS", "SPECTRAL_ALGORITHMS", "channel_view", "compensate_channel",
+           "focus_channels"]
 
-CHANNEL_ALGORITHMS = ("bpa",)
+SPECTRAL_ALGORITHMS = ("rda", "wda", "fsa")
+"""Frequency-domain algorithms that focus channels after :func:`compensate_channel`."""
+
+CHANNEL_ALGORITHMS = ("bpa", *SPECTRAL_ALGORITHMS)
 """Algorithms that focus multi-channel products: back-projection takes each channel's exact
-bistatic path; FFBP's polar stages and the spectral algorithms assume a monostatic antenna."""
+bistatic path, the spectral algorithms each channel compensated onto the common monostatic
+reference (module docstring); FFBP's polar stages assume a monostatic antenna."""
+
+DIRECTION_ERROR = "channel_direction_error"
+"""Variable of a compensated channel: its half-path error over direction sines
+(:func:`direction_error`), which :func:`mitsar.focus.spectral.prepare_spectrum` removes."""
+
+DIRECTION_SAMPLES = 257
+"""Direction sines at which :func:`direction_error` tabulates the error (over +-0.5 about the
+centroid: beyond any processed band of the paper's 9 deg beam; linear in between)."""
+
+RATE_STEP = 1e-3
+"""Time step [s] of the central difference that gives the in-sweep rate of a channel's path
+error at a fixed scene point."""
 
 _OFFSETS = ("transmitter_offset", "receiver_offset")
 
@@ -106,17 +141,20 @@ def focus_channels(raw: xr.Dataset, algorithm: str, grid: Grid,
         raise ParameterError("focus", "autofocus", "None for a TDM-MIMO raw product (its "
                              "channels hold the sweeps of different transmitters; "
                              "docs/interferometry.md)", autofocus)
-    first = focus_one(channel_view(raw, 0), grid, autofocus)
-    # a volume's voxels are in the scene frame already (the same for every channel)
-    pixels = grid if isinstance(grid, VolumeGrid) else PointsGrid(first["position"].values)
+    if algorithm in SPECTRAL_ALGORITHMS:
+        first, images = _focus_spectral(raw, algorithm, grid, focus_one)
+    else:
+        first = focus_one(channel_view(raw, 0), grid, autofocus)
+        # a volume's voxels are in the scene frame already (the same for every channel)
+        pixels = grid if isinstance(grid, VolumeGrid) else PointsGrid(first["position"].values)
 
-    def view(k: int) -> xr.Dataset:
-        if autofocus is None:
-            return channel_view(raw, k)
-        return correct_raw(channel_view(raw, k), first["autofocus_phase"].values)
+        def view(k: int) -> xr.Dataset:
+            if autofocus is None:
+                return channel_view(raw, k)
+            return correct_raw(channel_view(raw, k), first["autofocus_phase"].values)
 
-    images = [first["image"].values] + [focus_one(view(k), pixels, None)["image"].values
-                                        for k in range(1, raw.sizes["channel"])]
+        images = [first["image"].values] + [focus_one(view(k), pixels, None)["image"].values
+                                            for k in range(1, raw.sizes["channel"])]
     image = first.copy()
     image["image"] = (("channel", *first["image"].dims), np.stack(images),
                       first["image"].attrs)
@@ -138,3 +176,156 @@ def focus_channels(raw: xr.Dataset, algorithm: str, grid: Grid,
     if autofocus is not None:
         image.attrs["autofocus_channels"] = "channel 0's phase applied to all"
     return image
+
+
+def _focus_spectral(raw: xr.Dataset, algorithm: str, grid: Grid,
+                    focus_one: Callable[[xr.Dataset, Grid, str | None], xr.Dataset]
+                    ) -> tuple[xr.Dataset, list[np.ndarray]]:
+    """RDA/WDA/FSA of every channel, compensated onto the common reference (module
+    docstring), onto the one slant grid: channel 0's product and every channel's image."""
+    radar = radar_of(raw)
+    if radar.is_tdm:
+        raise ParameterError("focus", "algorithm", "'bpa' for a TDM-MIMO raw product (a "
+                             "channel holds every N_tx-th sweep; the spectral algorithms "
+                             "assume every sweep)", algorithm)
+    if not isinstance(grid, SlantGrid):
+        raise ParameterError("focus", "grid", f"a SlantGrid for {algorithm!r} (the frequency-"
+                             "domain algorithms form the image in along-track / slant-range "
+                             "coordinates; use algorithm='bpa' for plane and point grids)",
+                             type(grid).__name__)
+    # The grid's surface and range axis (its along-track extent does not matter here).
+    layout = grid.resolve(channel_view(raw, 0), radar, 1.0)
+    products = [focus_one(compensate_channel(channel_view(raw, k), radar, layout), grid, None)
+                for k in range(raw.sizes["channel"])]
+    first = products[0]
+    first.attrs["channel_compensation"] = ("each channel's bistatic path compensated onto the "
+                                           "monostatic track reference (mitsar.focus.channels)")
+    return first, [product["image"].values for product in products]
+
+
+def channel_path_error(raw: xr.Dataset, radar: Radar | None, layout: dict,
+                       shift: float = 0.0, centroid: float | None = None
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """Half-path error ``e(s, r)`` [m] of one channel (module docstring) and the monostatic
+    range ``|p_s - Q(s, r)|`` [m], both (sweeps, ranges).
+
+    ``Q(s, r)``: the point of the slant grid's surface (``origin + a along + r look``) at the
+    grid's distance ``r`` from the track that the track point ``p_s`` sees at the mean Doppler
+    centroid sine ``u_c`` (``a = x_s + r u_c / sqrt(1 - u_c^2)``, ``x_s`` the along-track
+    coordinate of ``p_s``). ``shift`` [s] moves the phase centres and the track point by the
+    platform velocity times ``shift`` with ``Q`` fixed (the in-sweep rate); ``centroid``
+    replaces ``u_c`` (:func:`direction_error`).
+    """
+    attrs = layout["attrs"]
+    origin = np.asarray(attrs["grid_origin"], dtype=float)
+    along = np.asarray(attrs["grid_along_track"], dtype=float)
+    look = np.asarray(attrs["grid_look"], dtype=float)
+    r = np.asarray(layout["coords"]["range"], dtype=float)
+    track = np.asarray(raw["platform_position"].values, dtype=float)
+    u_c = (float(np.clip(np.mean(centroid_sines(raw)), -0.999, 0.999)) if centroid is None
+           else centroid)
+    a = ((track - origin) @ along)[:, None] + r[None, :] * (u_c / np.sqrt(1.0 - u_c**2))
+    points = origin + a[..., None] * along + r[None, :, None] * look  # (sweeps, ranges, 3)
+    transmitter, receiver = channel_phase_centres(raw)
+    receiver = transmitter if receiver is None else receiver
+    move = np.asarray(raw["platform_velocity"].values, dtype=float) * shift
+    track, transmitter, receiver = track + move, transmitter + move, receiver + move
+    monostatic = np.linalg.norm(points - track[:, None, :], axis=-1)
+    path = (np.linalg.norm(points - transmitter[:, None, :], axis=-1)
+            + np.linalg.norm(points - receiver[:, None, :], axis=-1))
+    return 0.5 * path - monostatic, monostatic
+
+
+def compensate_channel(raw: xr.Dataset, radar: Radar, layout: dict) -> xr.Dataset:
+    """One channel (:func:`channel_view`) as the monostatic radar at its track point would
+    have recorded the slant grid's surface (module docstring; the steps of
+    :mod:`mitsar.focus.mocomp` with the channel's path error for the track's deviation):
+
+    1. delay ``dtau = 2 e(s, r_0) / c`` at the grid's centre range ``r_0`` and its in-sweep rate
+       ``dtau'`` (the path error of a fixed point as the platform moves): every sample times
+       ``exp{-j 2 pi [f_c dtau + (K dtau + f_c dtau') t]}``, carrier, envelope and in-sweep
+       motion at once;
+    2. per bin of a range FFT (apparent range ``c f / 2K``): ``exp{-j 4 pi [e(s, r) -
+       e(s, r_0)] / lambda}``, ``e`` interpolated linearly in the monostatic range.
+
+    A channel at the track point (both offsets zero) is returned as it is.
+
+    Parameters
+    ----------
+    raw : xarray.Dataset
+        One channel of a multi-channel raw product (``transmitter_offset``,
+        ``receiver_offset``).
+    radar : Radar
+    layout : dict
+        The slant grid resolved on ``raw`` (``attrs`` ``grid_origin``, ``grid_along_track``,
+        ``grid_look``; ``coords["range"]``).
+
+    Returns
+    -------
+    xarray.Dataset
+        ``raw`` with compensated samples and without the offsets (a monostatic product), the
+        attribute ``channel_path_error_m`` the largest ``|e|`` removed.
+    """
+    offsets = [np.asarray(raw[name].values, dtype=float) for name in _OFFSETS
+               if name in raw.variables]
+    out = raw.drop_vars(list(_OFFSETS), errors="ignore")
+    if not any(np.any(offset) for offset in offsets):
+        return out
+    error, monostatic = channel_path_error(raw, radar, layout)
+    ahead, _ = channel_path_error(raw, radar, layout, RATE_STEP)
+    behind, _ = channel_path_error(raw, radar, layout, -RATE_STEP)
+    r = np.asarray(layout["coords"]["range"], dtype=float)
+    centre = int(np.argmin(np.abs(r - 0.5 * (r.min() + r.max()))))
+    t = fast_time(radar)
+    dtau = 2.0 * error[:, centre] / SPEED_OF_LIGHT
+    dtau_rate = (ahead[:, centre] - behind[:, centre]) / (RATE_STEP * SPEED_OF_LIGHT)
+    samples = np.asarray(raw["raw"].values, dtype=complex) * np.exp(-2j * np.pi * (
+        radar.carrier_frequency * dtau[:, None]
+        + (radar.chirp_rate * dtau[:, None] + radar.carrier_frequency * dtau_rate[:, None])
+        * t[None, :]))
+    count = samples.shape[1]
+    bin_range = (SPEED_OF_LIGHT * np.fft.fftfreq(count, 1.0 / radar.sampling_frequency)
+                 / (2.0 * radar.chirp_rate))
+    # The monostatic ranges of the grid's points are the same at every sweep of a straight
+    # track (the points move with the sweep): the middle sweep's serve all, and every sweep's
+    # error curve is interpolated linearly on them in one vectorised step (clamped at the ends).
+    order = np.argsort(monostatic[len(monostatic) // 2])
+    ranges = monostatic[len(monostatic) // 2, order]
+    rest = (error - error[:, centre:centre + 1])[:, order]
+    if len(ranges) > 1:
+        index = np.clip(np.searchsorted(ranges, bin_range) - 1, 0, len(ranges) - 2)
+        weight = np.clip((bin_range - ranges[index]) / (ranges[index + 1] - ranges[index]),
+                         0.0, 1.0)
+        extra = (1.0 - weight) * rest[:, index] + weight * rest[:, index + 1]
+    else:
+        extra = np.zeros((len(samples), count))
+    spectrum = np.fft.fft(samples, axis=1) * np.exp(-4j * np.pi * extra / radar.wavelength)
+    out["raw"] = (raw["raw"].dims, np.fft.ifft(spectrum, axis=1), raw["raw"].attrs)
+    out.attrs["channel_path_error_m"] = float(np.abs(error).max())
+    sines, residual = direction_error(raw, layout, float(r[centre]))
+    out[DIRECTION_ERROR] = (("direction_sine",), residual, {
+        "units": "m", "long_name": "half-path error of the channel at the grid's centre range "
+        "seen at each direction sine, less that at the Doppler centroid (removed in the "
+        "azimuth-wavenumber domain by mitsar.focus.spectral.prepare_spectrum)"})
+    out = out.assign_coords(direction_sine=sines)
+    return out
+
+
+def direction_error(raw: xr.Dataset, layout: dict, centre_range: float
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """The channel's half-path error ``e(u) - e(u_c)`` [m] at the grid's centre range, over
+    direction sines ``u`` (the beam and more, :data:`DIRECTION_SAMPLES` of them): the part of
+    its error that :func:`compensate_channel`'s sweep-by-sweep correction, evaluated at the
+    Doppler centroid ``u_c``, leaves. A scatterer is seen at ``u = -k_x / k_r`` in the
+    azimuth-wavenumber domain, where the spectral front end removes it
+    (:func:`mitsar.focus.spectral.prepare_spectrum`). Evaluated at the middle sweep.
+    """
+    middle = raw.isel(sweep=[raw.sizes["sweep"] // 2])
+    centroid = float(np.clip(np.mean(centroid_sines(raw)), -0.999, 0.999))
+    sines = np.clip(centroid + np.linspace(-0.5, 0.5, DIRECTION_SAMPLES), -0.999, 0.999)
+    errors = []
+    for sine in (centroid, *sines):  # a handful of scalar evaluations, not a hot path
+        local = dict(layout, coords={"range": np.array([centre_range])})
+        error, _ = channel_path_error(middle, None, local, centroid=sine)
+        errors.append(float(error[0, 0]))
+    return sines, np.array(errors[1:]) - errors[0]

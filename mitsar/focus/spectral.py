@@ -44,6 +44,10 @@ from mitsar.focus.windows import evaluate_window, window_coefficients, window_sa
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
 from mitsar.model.signal import fast_time
 
+CHANNEL_DIRECTION_ERROR = "channel_direction_error"
+"""The variable of a compensated receive channel (:data:`mitsar.focus.channels.DIRECTION_ERROR`)
+that :func:`prepare_spectrum` removes per direction sine."""
+
 MIN_BAND_BINS = 256
 """Fewest azimuth-frequency bins across the processed band (the band edges fall between bins
 and get fractional weights, so this only sets how smoothly the band is sampled)."""
@@ -257,8 +261,15 @@ def prepare_spectrum(raw: xr.Dataset, radar: Radar, layout: dict, *, half_width:
     if motion_correction:
         azimuth_frequency = track.speed * k_x / (2 * np.pi)
         data *= motion_correction_phase(times[None, :], azimuth_frequency[:, None])
-    # Azimuth weighting: window over the direction sine, matched-filter amplitude, normalisation.
     sine = -k_x[:, None] / k_r[None, :]
+    if CHANNEL_DIRECTION_ERROR in raw.variables:
+        # A compensated receive channel (mitsar.focus.channels.compensate_channel): the rest
+        # of its path error with the direction sine, removed where each direction is seen.
+        table = raw[CHANNEL_DIRECTION_ERROR]
+        residual = np.interp(sine, np.asarray(table["direction_sine"].values, dtype=float),
+                             np.asarray(table.values, dtype=float))
+        data *= np.exp(-1j * k_r[None, :] * residual)
+    # Azimuth weighting: window over the direction sine, matched-filter amplitude, normalisation.
     width = step / k_r[None, :]
     coverage = _coverage(sine, width, low, high)
     position = (sine - low) / (2 * half_width)
