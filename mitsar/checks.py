@@ -203,3 +203,4 @@ class KnownFields(type):
         if unknown:
             raise ParameterError(cls.__name__, unknown[0], f"one of {known}", kwargs[unknown[0]])
         return super().__call__(*args, **kwargs)
+
