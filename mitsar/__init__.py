@@ -16,7 +16,7 @@ import sys
 import types
 from typing import TYPE_CHECKING, Any
 
-from mitsar.errors import MitsarError, ParameterError
+from mitsar.errors import MitsarError, ParameterError, public
 from mitsar.version import __version__
 
 if TYPE_CHECKING:  # the same names for type checkers and the API docs (griffe reads these)
@@ -73,11 +73,22 @@ _EXPORTS = {
 """Public names defined in a module: the name -> the module that defines it."""
 
 
+_CHECKED: dict[str, Any] = {}
+"""Public functions wrapped by :func:`mitsar.errors.public` (argument classes checked)."""
+
+
 def _public(name: str) -> Any:
-    """The public ``name``, imported from its module (:data:`_EXPORTS`, :data:`_MODULES`)."""
+    """The public ``name``, imported from its module (:data:`_EXPORTS`, :data:`_MODULES`);
+    a function comes wrapped so that wrong arguments get a ParameterError
+    (:func:`mitsar.errors.public`, issue 27)."""
     if name in _MODULES:
         return importlib.import_module(_MODULES[name])
-    return getattr(importlib.import_module(_EXPORTS[name]), name)
+    value = getattr(importlib.import_module(_EXPORTS[name]), name)
+    if isinstance(value, types.FunctionType):
+        if name not in _CHECKED:
+            _CHECKED[name] = public(value, module=__name__)
+        value = _CHECKED[name]
+    return value
 
 
 def __getattr__(name: str) -> Any:
