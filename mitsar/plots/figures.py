@@ -15,33 +15,32 @@ figures can be composed.
 
 from __future__ import annotations
 
+import functools
 import os
 import warnings
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from types import ModuleType
+from typing import TYPE_CHECKING, Any
 
-import matplotlib
+import numpy as np
+import xarray as xr
+from numpy.typing import ArrayLike, NDArray
 
-matplotlib.use("Agg")
+from mitsar.checks import positive
+from mitsar.errors import MitsarError
+from mitsar.focus.channels import channel_view
+from mitsar.focus.compression import range_compress
+from mitsar.focus.grid import equivalent_position
+from mitsar.io import atomic_output, check_writable, load
+from mitsar.model.geometry.attitude import Look, boresight
+from mitsar.products.image import vector_attr
+from mitsar.products.raw import radar_of
+from mitsar.products.requests import metrics_request, target_positions
 
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import xarray as xr  # noqa: E402
-from matplotlib.axes import Axes  # noqa: E402
-from matplotlib.figure import Figure  # noqa: E402
-from numpy.typing import ArrayLike, NDArray  # noqa: E402
-
-from mitsar.checks import positive  # noqa: E402
-from mitsar.errors import MitsarError  # noqa: E402
-from mitsar.focus.channels import channel_view  # noqa: E402
-from mitsar.focus.compression import range_compress  # noqa: E402
-from mitsar.focus.grid import equivalent_position  # noqa: E402
-from mitsar.io import atomic_output, check_writable, load  # noqa: E402
-from mitsar.model.geometry.attitude import Look, boresight  # noqa: E402
-from mitsar.products.image import vector_attr  # noqa: E402
-from mitsar.products.raw import radar_of  # noqa: E402
-from mitsar.products.requests import metrics_request, target_positions  # noqa: E402
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
 
 __all__ = [
     "METRICS_MARK",
@@ -52,10 +51,24 @@ __all__ = [
     "plot_file",
     "plot_image",
     "plot_range_compressed",
+    "pyplot",
     "save_figure",
 ]
 
 _FLOOR = 1e-30
+
+
+@functools.cache
+def pyplot() -> ModuleType:
+    """``matplotlib.pyplot`` on the Agg backend (chosen once), imported on first use (lazy:
+    Matplotlib is heavy, and a command that draws nothing, such as a no-op campaign rerun, must
+    not load it)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
 
 
 def _db(values: ArrayLike, reference: float | None = None) -> NDArray[np.float64]:
@@ -68,7 +81,7 @@ def _db(values: ArrayLike, reference: float | None = None) -> NDArray[np.float64
 def _new_axes(ax: Axes | None, figsize: tuple[float, float] = (6.4, 4.8)) -> Axes:
     if ax is not None:
         return ax
-    _, ax = plt.subplots(figsize=figsize, layout="constrained")
+    _, ax = pyplot().subplots(figsize=figsize, layout="constrained")
     return ax
 
 
@@ -212,7 +225,6 @@ def image_display_axes(image: xr.Dataset) -> tuple[Any, Any, str, str]:
         maps[k] = (lambda value, o=float(origin[i]), s=sign: o + s * np.asarray(value))
         labels[k] = f"{_WORLD[i]} [m]"
     return maps[0], maps[1], labels[0], labels[1]
-
 
 
 def _mark_location(image: xr.Dataset, position: ArrayLike) -> tuple[float, float] | None:
@@ -378,7 +390,7 @@ def plot_cuts(image: xr.Dataset, metrics: Mapping[str, Any] | None = None,
         The range and azimuth axes.
     """
     if axes is None:
-        _, axes = plt.subplots(1, 2, figsize=(11, 4), layout="constrained")
+        _, axes = pyplot().subplots(1, 2, figsize=(11, 4), layout="constrained")
     image, channel_note = first_channel(image)
     cuts = _cut_through_peak(image, metrics)
     for ax, name in zip(axes, ("range", "azimuth"), strict=True):
@@ -431,7 +443,7 @@ def plot_background_histograms(amplitudes: ArrayLike, phases: ArrayLike,
     if amplitudes.size == 0 or phases.size == 0:
         raise MitsarError("plot_background_histograms: no background samples to plot")
     if axes is None:
-        _, axes = plt.subplots(1, 2, figsize=(11, 4), layout="constrained")
+        _, axes = pyplot().subplots(1, 2, figsize=(11, 4), layout="constrained")
     ax_a, ax_p = axes
     ax_a.hist(amplitudes, bins=bins, density=True, color="C0", alpha=0.6,
               label=label or f"{amplitudes.size} scatterers")
@@ -493,14 +505,14 @@ def save_figure(figure: Figure, path: str | os.PathLike, overwrite: bool = False
     fmt = path.suffix.lstrip(".").lower() or "png"
     supported = figure.canvas.get_supported_filetypes()
     if fmt not in supported:
-        plt.close(figure)
+        pyplot().close(figure)
         raise MitsarError(f"{path}: unsupported figure format {fmt!r}; use one of "
                           f"{', '.join(sorted(supported))}")
     try:
         with atomic_output(path, overwrite) as tmp:
             figure.savefig(tmp, format=fmt, dpi=dpi)
     finally:
-        plt.close(figure)
+        pyplot().close(figure)
     return path
 
 
@@ -539,12 +551,12 @@ def plot_file(path: str | os.PathLike, out: str | os.PathLike, overwrite: bool =
     product = load(path)
     kind = product.attrs["product"]
     if kind == "image":
-        figure, ax = plt.subplots(figsize=(7, 6), layout="constrained")
+        figure, ax = pyplot().subplots(figsize=(7, 6), layout="constrained")
         plot_image(product, ax=ax, dynamic_range_db=dynamic_range_db or 40.0,
                    marks=target_marks(product),
                    range_marks=beam_range_marks(product) if range_marks is None else range_marks)
     elif "raw" in product or "profile" in product:
-        figure, ax = plt.subplots(figsize=(8, 5), layout="constrained")
+        figure, ax = pyplot().subplots(figsize=(8, 5), layout="constrained")
         plot_range_compressed(product, ax=ax, dynamic_range_db=dynamic_range_db or 50.0)
     else:
         raise MitsarError(f"{path}: no figure for a product of type {kind!r} (plots exist for "
