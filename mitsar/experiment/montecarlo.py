@@ -39,7 +39,6 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-import matplotlib.pyplot as plt
 import numpy as np
 import xarray as xr
 from tqdm.auto import tqdm
@@ -56,7 +55,7 @@ from mitsar.focus.dispatch import ALGORITHMS
 from mitsar.focus.grid import equivalent_position
 from mitsar.io import save
 from mitsar.model.signal import sweep_count
-from mitsar.plots.figures import save_figure
+from mitsar.plots.figures import pyplot, save_figure
 from mitsar.quality.impulse import measure_impulse_response
 from mitsar.raw.analytic import background_cell_area
 from mitsar.version import __version__
@@ -564,7 +563,7 @@ def draw_cuts(experiment: Experiment, algorithms: Sequence[str], realisations: i
     into ``out_dir/cuts.json``; when the hash matches and every figure is there nothing is
     simulated (a rerun of a finished Monte Carlo). Else the cuts are computed
     (:func:`realisations_cuts`, announced on stderr with a progress bar) and the figures
-    written.
+    written (a progress bar of their own).
 
     Returns
     -------
@@ -586,7 +585,9 @@ def draw_cuts(experiment: Experiment, algorithms: Sequence[str], realisations: i
                        f"and the nominal response ({realisations + 1} simulations, each "
                        f"focused by {len(algorithms)} algorithms; --cuts 0 skips them)...")
     cuts = realisations_cuts(experiment, algorithms, realisations, progress=progress)
-    for algorithm, figure in zip(algorithms, figures, strict=True):
+    for algorithm, figure in zip(tqdm(algorithms, desc="figures", unit="figure",
+                                      disable=not progress, file=sys.stderr), figures,
+                                 strict=True):
         plot_realisation_cuts(cuts[algorithm], figure, overwrite=True)
     _write_atomic(record, {"fingerprint": key, "figures": [f.name for f in figures]})
     return figures
@@ -595,7 +596,7 @@ def draw_cuts(experiment: Experiment, algorithms: Sequence[str], realisations: i
 def plot_realisation_cuts(cuts: dict[str, Any], path: str | os.PathLike,
                           overwrite: bool = False) -> Path:
     """Figure like paper Figs. 8-9: cuts of several realisations over the nominal response."""
-    figure, axes = plt.subplots(1, 2, figsize=(11, 4), constrained_layout=True)
+    figure, axes = pyplot().subplots(1, 2, figsize=(11, 4), constrained_layout=True)
     for ax, direction in zip(axes, DIRECTIONS, strict=True):
         offset = cuts[f"{direction}_offset"]
         for seed, cut in zip(cuts["seeds"], cuts["realisations"], strict=True):

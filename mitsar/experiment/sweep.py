@@ -38,7 +38,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import matplotlib.pyplot as plt
 import numpy as np
 import xarray as xr
 from tqdm.auto import tqdm
@@ -62,7 +61,7 @@ from mitsar.experiment.montecarlo import (
 )
 from mitsar.focus.dispatch import ALGORITHMS
 from mitsar.io import atomic_writer, save
-from mitsar.plots.figures import save_figure
+from mitsar.plots.figures import pyplot, save_figure
 from mitsar.plots.labels import key_label, quantity_label
 from mitsar.version import __version__
 
@@ -496,7 +495,7 @@ def plot_measure(table: xr.Dataset, measure: PointMeasure, folder: Path,
                                     *(range(table.sizes[k]) for k in others)))[:8]
     written = []
     for quantity in measure.quantities:
-        figure, ax = plt.subplots(figsize=(5.5, 3.6), constrained_layout=True)
+        figure, ax = pyplot().subplots(figsize=(5.5, 3.6), constrained_layout=True)
         for label, *combo in combos:
             cut = table[quantity].sel({measure.label: label}).isel(
                 dict(zip(others, combo, strict=True)))
@@ -532,7 +531,7 @@ def plot_sweep(table: xr.Dataset, folder: Path, overwrite: bool = True,
     written = []
     for quantity in QUANTITIES[:-1]:
         algorithms = table["algorithm"].values
-        figure, axes = plt.subplots(1, len(algorithms), figsize=(4.5 * len(algorithms), 3.6),
+        figure, axes = pyplot().subplots(1, len(algorithms), figsize=(4.5 * len(algorithms), 3.6),
                                     squeeze=False, constrained_layout=True)
         for ax, algorithm in zip(axes[0], algorithms, strict=True):
             data = table[quantity].sel(algorithm=algorithm)
