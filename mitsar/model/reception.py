@@ -212,3 +212,86 @@ def scene_reception_warnings(radar: Radar, positions: ArrayLike, point_targets: 
                     f"{seen.far_field_distance:.3f} m): the far-field pattern does not hold "
                     "there")
     return messages
+
+
+def channel_warnings(radar: Radar, positions: ArrayLike, antenna: ArrayLike,
+                     attitude: ArrayLike, names: list[str], reference: Reception,
+                     velocities: ArrayLike | None = None, times: ArrayLike | None = None
+                     ) -> list[str]:
+    """Per interferometric channel (docs/interferometry.md): the band and near-field checks of
+    :func:`reception_warnings` at each channel's own geometry, said where a channel loses more
+    than the radar's reference point does (which :func:`reception_warnings` already names).
+
+    A bistatic channel (transmitter at ``t``, receiver at ``r``) beats at the half path
+    ``R = (|q - t| + |q - r|) / 2`` (the range its deposit is binned at, paper eq. 1 with the
+    two-way delay ``2R/c``): it is out of the receiver's band where ``R > max_range``. Each
+    receive element (and each transmitter) sees its own near field, ``2 D^2 / lambda`` from its
+    own phase centre (:func:`fraunhofer_distance`, Balanis eq. 2-31).
+
+    Parameters
+    ----------
+    radar : Radar
+        With ``receivers`` (and ``transmitters``); a single-channel radar gives no sentence.
+    positions : array_like, shape (n, 3)
+        Scatterers [m] (at time 0 when ``velocities`` are given).
+    antenna : array_like, shape (sweeps, 3)
+        The radar's reference point at mid-sweep [m].
+    attitude : array_like, shape (sweeps, 3, 3)
+        Body-to-world rotations at mid-sweep (the phase centres are body-frame offsets).
+    names : list of str
+        The scatterers' names, as :func:`reception_warnings`.
+    reference : Reception
+        :func:`reception` at the reference point (what is already said).
+    velocities, times
+        As :func:`reception`.
+
+    Returns
+    -------
+    list of str
+        One sentence per scatterer and condition, listing the channels (``c = i N_rx + j``,
+        :meth:`mitsar.model.radar.Radar.channel_pairs`) or elements concerned.
+    """
+    if radar.channel_count < 2 and not radar.receivers:
+        return []
+    positions = np.asarray(positions, dtype=float).reshape(-1, 3)
+    antenna = np.asarray(antenna, dtype=float).reshape(-1, 3)
+    attitude = np.asarray(attitude, dtype=float).reshape(-1, 3, 3)
+    chosen = np.unique(np.linspace(0, len(antenna) - 1, min(len(antenna), SWEEPS_SAMPLED))
+                       .round().astype(int))
+    where = np.broadcast_to(positions[None], (len(chosen),) + positions.shape)
+    if velocities is not None and times is not None:
+        where = where + (np.asarray(velocities, float).reshape(-1, 3)[None]
+                         * np.asarray(times, float)[chosen, None, None])
+    transmitters, receivers = radar.channel_offsets()
+
+    def centre(offset: tuple[float, float, float]) -> NDArray[np.float64]:
+        """World position of a body-frame phase centre at the sampled sweeps, (sweeps, 3)."""
+        return antenna[chosen] + attitude[chosen] @ np.asarray(offset, dtype=float)
+
+    def distance(offset: tuple[float, float, float]) -> NDArray[np.float64]:
+        return np.linalg.norm(where - centre(offset)[:, None, :], axis=-1)  # (sweeps, n)
+
+    ranges = {offset: distance(offset) for offset in dict.fromkeys(transmitters + receivers)}
+    messages = []
+    in_band = np.stack([np.mean((ranges[t] + ranges[r]) / 2 <= radar.max_range, axis=0)
+                        for t, r in zip(transmitters, receivers, strict=True)])  # (ch, n)
+    far = fraunhofer_distance(radar)
+    for i, name in enumerate(names):
+        lost = np.flatnonzero(in_band[:, i] < reference.in_band[i])
+        if lost.size:
+            half = [(ranges[transmitters[c]][:, i] + ranges[receivers[c]][:, i]) / 2
+                    for c in lost]
+            messages.append(
+                f"{name} is beyond max_range = {radar.max_range:g} m for channels "
+                f"{lost.tolist()} in more sweeps than at the radar's reference point (their "
+                f"half path (|q - t| + |q - r|) / 2 reaches {max(h.max() for h in half):.3f} "
+                "m): those channels' beat frequency lies above the receiver's band, where a "
+                "real receiver rejects it (raise max_range or move the target)")
+        near = [offset for offset in dict.fromkeys(receivers + transmitters)
+                if ranges[offset][:, i].min() < far]
+        if near and not reference.near_field[i]:
+            messages.append(
+                f"{name} comes inside the near field (2 D^2 / lambda = {far:.3f} m) of the "
+                f"phase centres at {[list(o) for o in near]} m (body frame): the far-field "
+                "pattern and the point-scatterer model do not hold for their channels")
+    return messages
