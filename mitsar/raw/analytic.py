@@ -49,7 +49,7 @@ from mitsar.model.geometry.sweeps import SweepGeometry
 from mitsar.model.geometry.trajectory import Trajectory
 from mitsar.model.noise import check_noise, thermal_noise
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
-from mitsar.model.reception import reception, reception_warnings
+from mitsar.model.reception import channel_warnings, reception, reception_warnings
 from mitsar.model.signal import (
     apparent_beat_frequency,
     bistatic_delay,
@@ -500,6 +500,10 @@ def _reception_warnings(radar: Radar, look: Look, geometry: SweepGeometry,
     names = [f"targets[{i}] at [{', '.join(f'{v:g}' for v in p)}] m"
              for i, p in enumerate(positions)]
     messages = reception_warnings(radar, seen, names, pattern=pattern)
+    messages += channel_warnings(radar, positions, geometry.position,  # each channel's own
+                                 body_to_world(*geometry.attitude.T), names, seen,
+                                 [t.velocity for t in targets],
+                                 geometry.slow_time + radar.sweep_duration / 2)
     if pattern and radar.has_element_beams:
         messages += _element_warnings(radar, look, geometry, positions, targets, names)
     for message in messages:
