@@ -184,6 +184,9 @@ def run_pipeline(run: RunFolder, experiment: Experiment, algorithms: Sequence[st
     if raw is None:
         raw = _simulated(run, experiment, files, progress, log)
     result = PipelineResult(raw)
+    label = f" (pass {raw.attrs['pass']})" if "pass" in raw.attrs else ""
+    for message in str(raw.attrs.get("reception_warnings", "")).splitlines():  # issue 27
+        run.warn(f"reception{label}: {message}")  # echoes a real radar cannot receive
     figure, ax = plt.subplots(figsize=(8, 5), layout="constrained")
     plot_range_compressed(raw, ax=ax)
     run.figure(figure, files.range_figure, "Range-compressed data",
