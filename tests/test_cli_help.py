@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import re
+from pathlib import Path
 
 import pytest
 
@@ -58,3 +59,52 @@ def test_help_shows_list_defaults_as_typed():
     help_text = _option_helps(COMMANDS["montecarlo"])["--algorithms"]
     assert "(default: bpa rda wda fsa ffbp)" in help_text
     assert "(default: 10)" in _option_helps(COMMANDS["montecarlo"])["--realisations"]
+
+
+DOCS_CLI = Path(__file__).resolve().parents[1] / "docs" / "cli.md"
+GLOBAL_OPTIONS = {"--debug", "--quiet", "--memory-limit"}
+
+
+def _section(text: str, name: str) -> str:
+    """docs/cli.md's section of ``mitsar NAME`` (a heading naming it), up to the next one."""
+    found = re.search(rf"^## [^\n]*`mitsar {name}`[^\n]*\n(.*?)(?=^## |\Z)", text,
+                      flags=re.MULTILINE | re.DOTALL)
+    assert found, f"docs/cli.md has no section for mitsar {name}"
+    return found.group(1)
+
+
+@pytest.mark.parametrize("name", sorted(COMMANDS))
+def test_docs_cli_lists_every_command_and_its_options(name):
+    """Every sub-command has a row in the command table and a section; every option of it (its
+    long form) and every choice of an option with choices appears in that section; the global
+    options are in the table of options every command accepts."""
+    text = DOCS_CLI.read_text()
+    table = text[:text.index("Options every command accepts")]
+    assert f"`mitsar {name}" in table, f"mitsar {name} is not in docs/cli.md's command table"
+    section = _section(text, name)
+    missing = []
+    for action in COMMANDS[name]._actions:
+        if not action.option_strings or "--help" in action.option_strings:
+            continue
+        option = max(action.option_strings, key=len)
+        if option in GLOBAL_OPTIONS:
+            if f"`{option}" not in text.split("## Files")[0]:
+                missing.append(f"{option} (in the table of options every command accepts)")
+            continue
+        if not any(re.search(rf"(?<![\w-]){re.escape(form)}(?![\w-])", section)
+                   for form in action.option_strings):  # -o or --output
+            missing.append(option)
+        missing.extend(f"{option} {choice}" for choice in action.choices or ()
+                       if str(choice) not in section)
+    assert not missing, f"docs/cli.md, mitsar {name}: not documented: {missing}"
+
+
+def test_docs_cli_says_which_commands_take_overwrite():
+    """--overwrite is no global option: sweep and montecarlo refuse it (they resume instead)."""
+    text = DOCS_CLI.read_text()
+    options = text[text.index("Options every command accepts"):text.index("## Files")]
+    assert "| `--overwrite`" not in options, "docs/cli.md lists --overwrite as a global option"
+    for name in ("sweep", "montecarlo"):
+        assert all("--overwrite" not in a.option_strings for a in COMMANDS[name]._actions)
+        assert "--overwrite" not in _section(text, name).split("```")[1], (
+            f"docs/cli.md shows --overwrite in mitsar {name}'s usage")
