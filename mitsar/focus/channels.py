@@ -203,8 +203,8 @@ def _focus_spectral(raw: xr.Dataset, algorithm: str, grid: Grid,
     return first, [product["image"].values for product in products]
 
 
-def channel_path_error(raw: xr.Dataset, radar: Radar | None, layout: dict,
-                       shift: float = 0.0, centroid: float | None = None
+def channel_path_error(raw: xr.Dataset, layout: dict, shift: float = 0.0,
+                       centroid: float | np.ndarray | None = None
                        ) -> tuple[np.ndarray, np.ndarray]:
     """Half-path error ``e(s, r)`` [m] of one channel (module docstring) and the monostatic
     range ``|p_s - Q(s, r)|`` [m], both (sweeps, ranges).
@@ -213,8 +213,9 @@ def channel_path_error(raw: xr.Dataset, radar: Radar | None, layout: dict,
     grid's distance ``r`` from the track that the track point ``p_s`` sees at the mean Doppler
     centroid sine ``u_c`` (``a = x_s + r u_c / sqrt(1 - u_c^2)``, ``x_s`` the along-track
     coordinate of ``p_s``). ``shift`` [s] moves the phase centres and the track point by the
-    platform velocity times ``shift`` with ``Q`` fixed (the in-sweep rate); ``centroid``
-    replaces ``u_c`` (:func:`direction_error`).
+    platform velocity times ``shift`` with ``Q`` fixed (the in-sweep rate). ``centroid``
+    replaces ``u_c``: a scalar, or, with a one-range grid, an array of sines that takes the
+    place of the range axis (:func:`direction_error`).
     """
     attrs = layout["attrs"]
     origin = np.asarray(attrs["grid_origin"], dtype=float)
@@ -223,9 +224,9 @@ def channel_path_error(raw: xr.Dataset, radar: Radar | None, layout: dict,
     r = np.asarray(layout["coords"]["range"], dtype=float)
     track = np.asarray(raw["platform_position"].values, dtype=float)
     u_c = (float(np.clip(np.mean(centroid_sines(raw)), -0.999, 0.999)) if centroid is None
-           else centroid)
+           else np.asarray(centroid, dtype=float))
     a = ((track - origin) @ along)[:, None] + r[None, :] * (u_c / np.sqrt(1.0 - u_c**2))
-    points = origin + a[..., None] * along + r[None, :, None] * look  # (sweeps, ranges, 3)
+    points = origin + a[..., None] * along + (r[None, :] + 0.0 * a)[..., None] * look
     transmitter, receiver = channel_phase_centres(raw)
     receiver = transmitter if receiver is None else receiver
     move = np.asarray(raw["platform_velocity"].values, dtype=float) * shift
@@ -271,9 +272,9 @@ def compensate_channel(raw: xr.Dataset, radar: Radar, layout: dict) -> xr.Datase
     out = raw.drop_vars(list(_OFFSETS), errors="ignore")
     if not any(np.any(offset) for offset in offsets):
         return out
-    error, monostatic = channel_path_error(raw, radar, layout)
-    ahead, _ = channel_path_error(raw, radar, layout, RATE_STEP)
-    behind, _ = channel_path_error(raw, radar, layout, -RATE_STEP)
+    error, monostatic = channel_path_error(raw, layout)
+    ahead, _ = channel_path_error(raw, layout, RATE_STEP)
+    behind, _ = channel_path_error(raw, layout, -RATE_STEP)
     r = np.asarray(layout["coords"]["range"], dtype=float)
     centre = int(np.argmin(np.abs(r - 0.5 * (r.min() + r.max()))))
     t = fast_time(radar)
@@ -323,9 +324,6 @@ def direction_error(raw: xr.Dataset, layout: dict, centre_range: float
     middle = raw.isel(sweep=[raw.sizes["sweep"] // 2])
     centroid = float(np.clip(np.mean(centroid_sines(raw)), -0.999, 0.999))
     sines = np.clip(centroid + np.linspace(-0.5, 0.5, DIRECTION_SAMPLES), -0.999, 0.999)
-    errors = []
-    for sine in (centroid, *sines):  # a handful of scalar evaluations, not a hot path
-        local = dict(layout, coords={"range": np.array([centre_range])})
-        error, _ = channel_path_error(middle, None, local, centroid=sine)
-        errors.append(float(error[0, 0]))
-    return sines, np.array(errors[1:]) - errors[0]
+    local = dict(layout, coords={"range": np.array([centre_range])})
+    error, _ = channel_path_error(middle, local, centroid=np.append(centroid, sines))
+    return sines, error[0, 1:] - error[0, 0]
