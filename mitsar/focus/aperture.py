@@ -53,6 +53,7 @@ __all__ = [
     "full_aperture_weight",
     "is_uniform_straight_track",
     "mean_track_frame",
+    "median_sweep_interval",
     "normalise_image",
     "sweep_window",
     "track_coordinates",
@@ -338,6 +339,24 @@ def aspect_frames(pixels: NDArray, positions: NDArray, velocities: NDArray,
     return direction, centre
 
 
+def median_sweep_interval(positions: ArrayLike, velocities: ArrayLike) -> float:
+    """Time between sweeps [s] from their mid-sweep positions and velocities.
+
+    The median over neighbouring sweeps of ``|p_k+1 - p_k| / ((|v_k| + |v_k+1|) / 2)``
+    (sweeps that move); 0 when fewer than two sweeps move. Back-projection turns it into the
+    stretch of aperture a sweep stands for, ``|v_k| T``
+    (:func:`mitsar.focus.backprojection.inverse_window_step`).
+    """
+    positions = np.asarray(positions, dtype=float)
+    speed = np.linalg.norm(np.asarray(velocities, dtype=float), axis=-1)
+    if len(positions) < 2:
+        return 0.0
+    step = np.linalg.norm(np.diff(positions, axis=0), axis=-1)
+    moving = 0.5 * (speed[1:] + speed[:-1])
+    ratio = step[moving > 0] / moving[moving > 0]
+    return float(np.median(ratio)) if len(ratio) else 0.0
+
+
 def mean_track_frame(positions: NDArray, velocities: NDArray, centroid_sine: NDArray,
                      smoothing_time: float = MEAN_TRACK_TIME,
                      sweep_interval: float | None = None) -> tuple[NDArray, NDArray]:
@@ -356,12 +375,7 @@ def mean_track_frame(positions: NDArray, velocities: NDArray, centroid_sine: NDA
     if len(positions) < 2 or smoothing_time <= 0:
         return velocities, centroid_sine
     if sweep_interval is None:
-        step = np.linalg.norm(np.diff(positions, axis=0), axis=-1)
-        moving = 0.5 * (speed[1:] + speed[:-1])
-        ratio = step[moving > 0] / moving[moving > 0]
-        if not len(ratio):
-            return velocities, centroid_sine
-        sweep_interval = float(np.median(ratio))
+        sweep_interval = median_sweep_interval(positions, velocities)
     if not sweep_interval > 0:
         return velocities, centroid_sine
     mean = mean_track_velocity(np.column_stack([velocities, speed * centroid_sine]),

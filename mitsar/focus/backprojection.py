@@ -10,7 +10,12 @@ For every pixel x and sweep (or pulse) k with two-way delay ``tau`` (and delay r
    (:func:`profile_position`, :func:`interpolate`);
 3. the value is de-rotated by ``exp(-j 2 pi f_c tau)``, the carrier phase the sweep-centred
    range FFT leaves (paper eq. 1; :func:`carrier_turns`, :func:`derotate`);
-4. it is weighted and accumulated, with the sum of the weights for the normalisation.
+4. it is weighted by the azimuth window at the sweep's window offset g (direction sine less
+   the centroid, or the pixel's aspect offset) times the part of the sweep's stretch of
+   aperture inside ``|g| <= h`` (:func:`edge_fraction`: 1 inside, a fraction for the edge
+   sweeps, so the aperture is not cut at whole sweeps; for a band narrower than the beam,
+   :func:`fractional_edges`), and accumulated, with the sum of the weights for the
+   normalisation.
 
 Steps 1-3 are small pure functions of operators (and a ``floor``), called by the NumPy sum
 (:func:`pulse_sum`, behind :func:`backproject_numpy` and :func:`backproject_referenced`) and by
@@ -34,8 +39,8 @@ import drjit as dr
 import numpy as np
 from numpy.typing import NDArray
 
-from mitsar.backend import array_namespace, namespace_of
-from mitsar.focus.aperture import doppler_geometry
+from mitsar.backend import array_namespace, namespace_of, safe_width
+from mitsar.focus.aperture import aperture_half_width, doppler_geometry, median_sweep_interval
 from mitsar.focus.windows import cosine_series, evaluate_window
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
 from mitsar.model.signal import beat_frequency, half_path
@@ -46,7 +51,10 @@ __all__ = [
     "backproject_referenced",
     "carrier_turns",
     "derotate",
+    "edge_fraction",
+    "fractional_edges",
     "interpolate",
+    "inverse_window_step",
     "jit_array",
     "kernel_tables",
     "pixel_pulse",
@@ -89,6 +97,61 @@ def carrier_turns(delay: Any, carrier_frequency: Any, floor: Callable[[Any], Any
 def derotate(real: Any, imag: Any, sin_phase: Any, cos_phase: Any) -> tuple[Any, Any]:
     """Real and imaginary parts of ``(real + j imag) exp(-j phase)``."""
     return real * cos_phase + imag * sin_phase, imag * cos_phase - real * sin_phase
+
+
+SMALLEST_WINDOW_STEP = 1e-30
+"""Floor of the window step (a platform at rest, a pixel dead ahead): the edge fraction is
+then the hard cut ``|g| <= h``."""
+
+
+def inverse_window_step(rate: Any, spacing_over_range: Any, maximum: Callable) -> Any:
+    """``1 / delta``: the window offset's change from one sweep to the next, inverted.
+
+    Moving the antenna by ``s = |v| T`` along its unit velocity v (T the sweep interval)
+    turns the unit line of sight l to a pixel at range R by ``-(s / R) (v - (v . l) l)``,
+    so the window offset ``g = d . l - u`` changes by ``delta = (s / R) |d . v - (d . l)(l .
+    v)|`` per sweep: ``rate = d . v - (d . l)(l . v)`` with the aspect frame's direction d
+    (:func:`mitsar.focus.aperture.aspect_frames`), ``1 - (l . v)^2`` on the sweep's own
+    velocity (d = v; a centroid that changes along a turn is neglected there). Floored at
+    :data:`SMALLEST_WINDOW_STEP`.
+
+    Parameters
+    ----------
+    rate : array_like
+        ``d . v - (d . l)(l . v)`` (any sign).
+    spacing_over_range : array_like
+        ``|v| T / R`` [1].
+    maximum : callable
+        Element-wise maximum of the caller's array library.
+    """
+    return 1.0 / maximum(abs(rate) * spacing_over_range, SMALLEST_WINDOW_STEP)
+
+
+def edge_fraction(offset: Any, inverse_step: Any, half_width: Any, clip: Callable) -> Any:
+    """Part of a sweep's stretch of aperture that lies inside the window ``|g| <= h``.
+
+    Sweep k stands for the aperture half-way to its neighbours, over which the window offset
+    moves across ``[g_k - delta / 2, g_k + delta / 2]`` (:func:`inverse_window_step`); the
+    part of it inside ``[-h, h]`` is ``clip(1/2 + (h - |g_k|) / delta, 0, 1)`` (for
+    ``delta <= 2 h``): 1 well inside, 0 beyond ``h + delta / 2``, a fraction for the one
+    or two sweeps at each edge. The processed aperture then spans ``2 h`` of window offset
+    whatever the sampling, as the Doppler band-pass weights its edge bins
+    (:func:`mitsar.focus.aperture.doppler_bandpass`); cut at whole sweeps it would jump by
+    a sweep from pixel to pixel (64 or 65 sweeps at 10 cm, a 0.35 dB swing of the PSLR;
+    docs/focusing.md, "An aperture that ignores the wander").
+    """
+    return clip(0.5 + (half_width - abs(offset)) * inverse_step, 0.0, 1.0)
+
+
+def fractional_edges(radar: Radar, half_width: float) -> bool:
+    """Whether the window's edges get :func:`edge_fraction` (else the cut ``|g| <= h``).
+
+    Only a band narrower than the beam: the whole beam ends at the antenna pattern's first
+    nulls (:func:`mitsar.focus.aperture.aperture_half_width`), where the echo vanishes and
+    the part of an edge sweep inside changes nothing (nor does it cost the kernels' time, in
+    the Doppler band selection's whole-beam sum, the default on straight tracks).
+    """
+    return bool(half_width < aperture_half_width(radar, None))
 
 
 def pulse_sum(profile: NDArray, frequency: NDArray, delay: NDArray, beat: NDArray,
@@ -186,11 +249,21 @@ def backproject_numpy(profile: NDArray, frequency: NDArray, radar: Radar, pixels
     beat = beat_frequency(delay, delay_rate if motion_correction else 0.0, radar.chirp_rate,
                           radar.carrier_frequency)
     offset = sine - centroid_sine[:, None]
-    if aspect is not None:
+    speed = np.linalg.norm(velocities, axis=-1)
+    spacing_over_range = (speed * median_sweep_interval(positions, velocities))[:, None] \
+        / slant_range
+    if aspect is None:
+        rate = 1.0 - sine * sine
+    else:
         offset = (np.einsum("spi,pi->sp", pixels[None] - positions[:, None], aspect[0])
                   / slant_range - aspect[1][None])
-    weight = np.where(np.abs(offset) <= half_width,
-                      evaluate_window(window, offset / (2 * half_width) + 0.5), 0.0)
+        along = velocities @ aspect[0].T / np.where(speed > 0, speed, 1.0)[:, None]  # d . v
+        rate = along - (offset + aspect[1][None]) * sine
+    fraction = (edge_fraction(offset, inverse_window_step(rate, spacing_over_range, np.maximum),
+                              half_width, np.clip) if fractional_edges(radar, half_width)
+                else (np.abs(offset) <= half_width).astype(float))
+    inside = np.clip(offset, -half_width, half_width) / (2 * half_width) + 0.5
+    weight = np.where(fraction > 0, evaluate_window(window, inside) * fraction, 0.0)
     return pulse_sum(profile, frequency, delay, beat, weight, radar.carrier_frequency)
 
 
@@ -292,10 +365,12 @@ def kernel_tables(profile: NDArray, frequency: NDArray, radar: Radar, positions:
 
     Parameters as :func:`backproject_numpy`. Returns the kernel constants (opaque scalars:
     profile position of ``K tau`` and of the Doppler term, carrier turns per metre, bins,
-    half width, window coefficients), the sweep arrays (position float64; unit direction,
-    speed and centroid sine float32; a bistatic channel's receiver position float64) and the
-    profiles as one 64-bit (real, imag) float32 word per bin, all on the backend of
-    :func:`mitsar.backend.array_namespace`.
+    half width, window coefficients, sweep interval
+    (:func:`mitsar.focus.aperture.median_sweep_interval`) for the edge fractions, and
+    whether they apply, :func:`fractional_edges`), the sweep arrays (position float64; unit
+    direction, speed and centroid sine float32; a bistatic channel's receiver position
+    float64) and the profiles as one 64-bit (real, imag) float32 word per bin, all on the
+    backend of :func:`mitsar.backend.array_namespace`.
     """
     jit = array_namespace()
     Float32, Float64, UInt32, UInt64 = jit.Float32, jit.Float64, jit.UInt32, jit.UInt64
@@ -313,6 +388,8 @@ def kernel_tables(profile: NDArray, frequency: NDArray, radar: Radar, positions:
         "carrier_scale": dr.opaque(Float64, radar.carrier_frequency * two_over_c),
         "bins": dr.opaque(UInt32, bins),
         "half_width": dr.opaque(Float32, half_width),
+        "sweep_interval": dr.opaque(Float32, median_sweep_interval(positions, velocities)),
+        "fractional_edges": fractional_edges(radar, half_width),
         "coefficients": [float(c) for c in coefficients]}
     sweep_arrays = ([jit_array(Float64, positions[:, i], np.float64) for i in range(3)]
                     + [jit_array(Float32, a, np.float32) for a in (
@@ -334,11 +411,13 @@ def _lane_groups(first: NDArray, group: int) -> NDArray:
     """Pixel indices of every lane, shape (L, group), -1 for padding.
 
     Pixels are taken in order of their first sweep (stable: the caller's order among equal
-    ones), so that the pixels of a lane share their sweep range.
+    ones), so that the pixels of a lane share their sweep range. L is padded past the widths
+    at which Dr.Jit 1.5's LLVM backend crashes (:func:`mitsar.backend.safe_width`, at most 15
+    lanes of padding only: empty sweep ranges, their results dropped).
     """
     sorted_already = len(first) < 2 or bool(np.all(first[1:] >= first[:-1]))
     order = np.arange(len(first)) if sorted_already else np.argsort(first, kind="stable")
-    lanes = -(-len(order) // group)
+    lanes = safe_width(-(-len(order) // group))
     padded = np.full(lanes * group, -1, dtype=np.int64)
     padded[: len(order)] = order
     return padded.reshape(lanes, group)
@@ -389,11 +468,19 @@ def pixel_pulse(k: Any, pixel: tuple, sweep: tuple, pairs: Any, constants: dict
                                        0.0, 1.0, dr.floor)
     bin_index = Int32(lower) + Int32(shift)
     offset = sine - centroid
+    rate = 1.0 - sine * sine
     if len(pixel) > 5:  # aspect-angle window (curved tracks): the pixel's own frame
         dx, dy, dz, centre = pixel[5:]
         offset = (Float32(ox) * dx + Float32(oy) * dy + Float32(oz) * dz) * inverse_range - centre
+        rate = ux * dx + uy * dy + uz * dz - (offset + centre) * sine
+    if constants["fractional_edges"]:  # a band narrower than the beam
+        part = edge_fraction(offset, inverse_window_step(
+            rate, speed * constants["sweep_interval"] * inverse_range, dr.maximum),
+            half_width, dr.clip)
+    else:
+        part = dr.select(dr.abs(offset) <= half_width, Float32(1.0), Float32(0.0))
     active = ((k >= first) & (k < end) & (bin_index >= 0) & (bin_index < Int32(bins - 1))
-              & (dr.abs(offset) <= half_width))
+              & (part > 0))
     flat = k * bins + UInt32(dr.select(active, bin_index, 0))
     low = dr.gather(UInt64, pairs, flat, active)
     high = dr.gather(UInt64, pairs, flat + 1, active)
@@ -404,8 +491,9 @@ def pixel_pulse(k: Any, pixel: tuple, sweep: tuple, pairs: Any, constants: dict
     # Carrier phase wrapped to one turn in float64, sin/cos in float32 (error < 1e-6 rad).
     turns = carrier_turns(slant_range, constants["carrier_scale"], dr.floor)
     sin_phase, cos_phase = dr.sincos(Float32(2 * math.pi) * Float32(turns))
-    weight = dr.select(active, cosine_series(constants["coefficients"],
-                                             offset / (2 * half_width), _cos32), 0.0)
+    inside = dr.clip(offset, -half_width, half_width)
+    weight = dr.select(active, part * cosine_series(constants["coefficients"],
+                                                    inside / (2 * half_width), _cos32), 0.0)
     part_real, part_imag = derotate(v_real, v_imag, sin_phase, cos_phase)
     return weight * part_real, weight * part_imag, weight
 

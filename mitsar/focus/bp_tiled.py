@@ -30,7 +30,9 @@ Meta 2007 §II-B; linear interpolation of the zero-padded range profile; de-rota
 
    with a remainder of order ``(m |A| / r)^3``, so the lookup position, the phase and the
    window offset of a pixel are each one polynomial in m whose coefficients are computed once
-   per lane and sweep;
+   per lane and sweep, and so is the inverse window step of the edge fraction
+   (:func:`mitsar.focus.backprojection.edge_fraction`), ``R / (|v| T (1 - s^2))``, to first
+   order in m: ``R`` grows by ``m A . u`` and ``s`` by ``m (beta - s_c alpha)``;
 4. the lookup position is the centre's fraction plus ``delta`` times bins per metre plus the
    Doppler shift, the phase the centre's wrapped turns plus ``2 f_c delta / c``; one 16-byte
    packet per lookup holds the bin's value and the difference to the next (complex64), and
@@ -57,10 +59,13 @@ import drjit as dr
 import numpy as np
 from numpy.typing import NDArray
 
-from mitsar.backend import array_namespace, namespace_of
+from mitsar.backend import array_namespace, namespace_of, safe_width
 from mitsar.focus.backprojection import (
+    SMALLEST_WINDOW_STEP,
     backproject_drjit,
     carrier_turns,
+    edge_fraction,
+    inverse_window_step,
     jit_array,
     kernel_tables,
     profile_position,
@@ -345,7 +350,9 @@ def _run_lanes(profile: NDArray, frequency: NDArray, radar: Radar, centre: NDArr
                          - first_part).max(initial=0) + 1))
     edges = (first_part[None] + np.arange(splits + 1)[:, None]) * span  # (splits + 1, L)
     bounds = np.clip(edges, lane_first[None], lane_end[None])
-    which = dr.arange(UInt32, lanes * splits) % dr.opaque(UInt32, lanes)  # split-major
+    # kernel width past Dr.Jit 1.5's crashing widths (safe_width): extra lanes of empty ranges
+    width = safe_width(lanes * splits)
+    which = dr.arange(UInt32, width) % dr.opaque(UInt32, lanes)  # split-major
 
     def per_lane(kind: type, values: NDArray, dtype: type) -> Any:
         return dr.gather(kind, jit_array(kind, values, dtype), which)
@@ -359,13 +366,15 @@ def _run_lanes(profile: NDArray, frequency: NDArray, radar: Radar, centre: NDArr
             [[per_lane(Float32, frames[:, g, i], np.float32) for i in range(4)]
              for g in range(frames.shape[1])],
             "size": size, "checked": checked}
-    first = jit_array(UInt32, bounds[:-1].ravel(), np.uint32)
-    end = jit_array(UInt32, bounds[1:].ravel(), np.uint32)
-    result = lane_loop(lane, first, end, sweep_arrays, pairs, constants, lanes * splits)
+    padding = np.zeros(width - lanes * splits, dtype=np.uint32)
+    first = jit_array(UInt32, np.concatenate([bounds[:-1].ravel(), padding]), np.uint32)
+    end = jit_array(UInt32, np.concatenate([bounds[1:].ravel(), padding]), np.uint32)
+    result = lane_loop(lane, first, end, sweep_arrays, pairs, constants, width)
     dr.eval(*result)
     # the parts of every lane summed in float64, one accumulator at a time (no big copies)
-    parts = np.stack([np.add.reduce(np.asarray(r).reshape(splits, lanes), axis=0,
-                                    dtype=np.float64) for r in result]).reshape(size, 3, lanes)
+    parts = np.stack([np.add.reduce(np.asarray(r)[:lanes * splits].reshape(splits, lanes),
+                                    axis=0, dtype=np.float64)
+                      for r in result]).reshape(size, 3, lanes)
     return (parts[:, 0] + 1j * parts[:, 1]).T, parts[:, 2].T
 
 
@@ -396,6 +405,7 @@ def lane_loop(lane: dict, first: Any, end: Any, sweep_arrays: list, pairs: Any,
     bins_per_metre = Float32(constants["range_scale"])
     half_turns_per_metre = 0.5 * Float32(constants["carrier_scale"])
     rectangular = list(constants["coefficients"]) == [1.0, 0.0, 0.0, 0.0]  # weight 1 or 0
+    fractional = constants["fractional_edges"]  # edge fractions (a band narrower than the beam)
     coefficients = constants["coefficients"]
     inverse_width = 1.0 / (2.0 * half_width)
     last_bin = Int32(bins - 1)
@@ -423,6 +433,8 @@ def lane_loop(lane: dict, first: Any, end: Any, sweep_arrays: list, pairs: Any,
         fx32, fy32, fz32 = Float32(wx), Float32(wy), Float32(wz)
         along = fx32 * vx + fy32 * vy + fz32 * vz                     # v . w
         doppler = constants["doppler_scale"] * speed
+        if fractional:  # |v| T: the stretch of aperture a sweep stands for [m]
+            spacing = speed * constants["sweep_interval"]
         if step is not None:  # per lane and sweep: A . u, and the direction sine of slot m
             # s(m) = s_c + m c_1 + m^2 c_2 + O((m |A| / r)^3), from v.(w + m A) / |w + m A|
             # with alpha = A.u / r, beta = A.v / r, gamma = |A|^2 / r^2 (eq. 2)
@@ -444,6 +456,11 @@ def lane_loop(lane: dict, first: Any, end: Any, sweep_arrays: list, pairs: Any,
             cycles = (0.5 * turns, half_turns_per_metre * step_u, half_turns_per_metre * d_2,
                       half_turns_per_metre * d_3)   # half turns (sincos_half_turns)
             window_offset = (sine_centre - centroid, sine_1, sine_2)
+            if fractional:  # 1 / delta(m) = R / (|v| T (1 - s^2)), first order in m (step 3)
+                across_sine = dr.fma(-sine_centre, sine_centre, 1.0)
+                step_0 = inverse_window_step(across_sine, spacing * inverse32, dr.maximum)
+                step_1 = step_0 * dr.fma(sine_centre + sine_centre, sine_1 / dr.maximum(
+                    across_sine, SMALLEST_WINDOW_STEP), alpha)
         row = Int32(k * bins)
         start = row + base   # flat index of the lane centre's bin
         start_row[0] = row
@@ -453,7 +470,9 @@ def lane_loop(lane: dict, first: Any, end: Any, sweep_arrays: list, pairs: Any,
                 shift, frac = profile_position(_horner(position, m), 0.0, 1.0, dr.floor)
                 phase = _horner(cycles, m)
                 offset = _horner(window_offset, m)
-                out += _accumulate(shift, frac, phase, offset, start, accumulators[3 * g:])
+                out += _accumulate(shift, frac, phase, offset,
+                                   dr.fma(m, step_1, step_0) if fractional else None,
+                                   start, accumulators[3 * g:])
                 continue
             if offset_xyz is None:
                 a = m * step_u
@@ -470,21 +489,35 @@ def lane_loop(lane: dict, first: Any, end: Any, sweep_arrays: list, pairs: Any,
             shift, frac = profile_position(dr.fma(delta, bins_per_metre,
                                                   dr.fma(doppler, sine, fraction)),
                                            0.0, 1.0, dr.floor)
+            rate = None
             if frame is None:
                 offset = sine - centroid
+                if fractional:
+                    rate = dr.fma(-sine, sine, 1.0)
             else:  # aspect-angle window: the pixel's own direction and centre sine
                 fx, fy, fz, centre_sine = frame
                 offset = (dr.fma(fx32 + dx, fx, dr.fma(fy32 + dy, fy, (fz32 + dz) * fz))
                           * inverse_range - centre_sine)
+                if fractional:
+                    rate = dr.fma(-(offset + centre_sine), sine,
+                                  dr.fma(fx, vx, dr.fma(fy, vy, fz * vz)))
+            inverse_step = (inverse_window_step(rate, spacing * inverse_range, dr.maximum)
+                            if fractional else None)
             phase = dr.fma(delta, half_turns_per_metre, 0.5 * turns)
-            out += _accumulate(shift, frac, phase, offset, start, accumulators[3 * g:])
+            out += _accumulate(shift, frac, phase, offset, inverse_step, start,
+                               accumulators[3 * g:])
         return (k + 1, *out)
 
-    def _accumulate(shift: Any, frac: Any, phase: Any, offset: Any, start: Any,
-                    sums: tuple) -> list:
-        """Steps 2-4 of :mod:`mitsar.focus.backprojection` for one pixel: window, lookup,
-        linear interpolation, de-rotation, weighted sums (real, imaginary, weight)."""
-        active = dr.abs(offset) <= half_width
+    def _accumulate(shift: Any, frac: Any, phase: Any, offset: Any, inverse_step: Any,
+                    start: Any, sums: tuple) -> list:
+        """Steps 2-4 of :mod:`mitsar.focus.backprojection` for one pixel: window and edge
+        fraction, lookup, linear interpolation, de-rotation, weighted sums (real, imaginary,
+        weight)."""
+        if inverse_step is None:  # the whole beam: the cut |g| <= h (fractional_edges)
+            active = dr.abs(offset) <= half_width
+        else:
+            fraction = edge_fraction(offset, inverse_step, half_width, dr.clip)
+            active = fraction > 0
         flat = start + Int32(shift)
         if lane["checked"]:
             local = flat - start_row[0]
@@ -496,11 +529,18 @@ def lane_loop(lane: dict, first: Any, end: Any, sweep_arrays: list, pairs: Any,
         # phase in half turns (the coefficients carry the 1/2), wrapped to [-1/4, 1/4]
         sin_phase, cos_phase = sincos_half_turns(dr.fma(dr.round(phase + phase), -0.5,
                                                         phase))
-        if rectangular:  # inactive lanes gathered zeros: no weight to multiply by
+        if inverse_step is None and rectangular:  # inactive lanes gathered zeros
             weight = dr.select(active, 1.0, 0.0)
-        else:
+        elif inverse_step is None:
             weight = dr.select(active, cosine_series(coefficients, offset * inverse_width,
                                                      _cos_turns), 0.0)
+            sin_phase, cos_phase = weight * sin_phase, weight * cos_phase
+        else:  # the fraction is 0 where no sweep counts; the bounds test may clear more
+            weight = dr.select(active, fraction, 0.0) if lane["checked"] else fraction
+            if not rectangular:
+                inside = dr.clip(offset, -half_width, half_width)
+                weight = weight * cosine_series(coefficients, inside * inverse_width,
+                                                _cos_turns)
             sin_phase, cos_phase = weight * sin_phase, weight * cos_phase
         # derotate (backprojection.derotate) and accumulate, fused
         return [dr.fma(v_real, cos_phase, dr.fma(v_imag, sin_phase, sums[0])),

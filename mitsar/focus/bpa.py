@@ -31,7 +31,12 @@ import xarray as xr
 from numpy.typing import NDArray
 from tqdm.auto import tqdm
 
-from mitsar.focus.aperture import aspect_frames, sweep_window, track_coordinates
+from mitsar.focus.aperture import (
+    aspect_frames,
+    median_sweep_interval,
+    sweep_window,
+    track_coordinates,
+)
 from mitsar.focus.backprojection import backproject_drjit, backproject_numpy
 from mitsar.focus.bp_setup import aperture_weights, beat_band, normalise, prepare
 from mitsar.focus.bp_tiled import backproject_tiled
@@ -168,10 +173,13 @@ def curved_sweep_range(pixels: NDArray, positions: NDArray, velocities: NDArray,
     min(R(c_i), R(c_{i+1})) - L_i / 2`` a lower bound of the pixel's range along it (so the
     line of sight turns by at most ``L_i / R_i`` radians, a chord of the unit sphere no longer
     than that), ``V_i`` the summed changes ``|v_{k+1} - v_k|`` of the unit velocity and
-    ``C_i`` those of the centroid sine. An interval can hold a contributing sweep only if
-    ``|g(c_i)| <= h + m_i + slack`` (``slack`` covers the kernel's float32 offsets), and a pixel's
-    range runs from the first such interval's start to the last one's end: no contributing
-    sweep is dropped (an interval with ``R_i <= 0`` always qualifies).
+    ``C_i`` those of the centroid sine. A sweep contributes while ``|g_k| < h + delta_k / 2``
+    (its edge fraction, :func:`mitsar.focus.backprojection.edge_fraction`; ``delta_k <=
+    |v_k| T / R``, T the sweep interval), so an interval can hold a contributing sweep only if
+    ``|g(c_i)| <= h + m_i + e_i / 2 + slack``, ``e_i = max |v_k| T / R_i`` over the interval
+    (``slack`` covers the kernel's float32 offsets), and a pixel's range runs from the first
+    such interval's start to the last one's end: no contributing sweep is dropped (an interval
+    with ``R_i <= 0`` always qualifies).
 
     Parameters
     ----------
@@ -212,6 +220,10 @@ def curved_sweep_range(pixels: NDArray, positions: NDArray, velocities: NDArray,
         return total[coarse[1:]] - total[coarse[:-1]]
 
     path = per_interval(np.linalg.norm(np.diff(positions, axis=0), axis=-1))
+    # the longest stretch |v_k| T a sweep of the interval stands for (its edge fraction)
+    spacing = (np.linalg.norm(velocities, axis=-1)
+               * median_sweep_interval(positions, velocities))
+    stretch = np.maximum(np.maximum.reduceat(spacing, coarse[:-1]), spacing[coarse[1:]])
     turning = np.zeros(len(path))
     if aspect is None:
         speed = np.linalg.norm(velocities, axis=-1, keepdims=True)
@@ -237,7 +249,8 @@ def curved_sweep_range(pixels: NDArray, positions: NDArray, velocities: NDArray,
             offset = ((np.einsum("pi,pi->p", block, frame)[:, None] - frame @ anchors.T)
                       / distance - centre[:, None])
         nearest = np.minimum(distance[:, :-1], distance[:, 1:]) - 0.5 * path[None]
-        reach = np.where(nearest > 0, path[None] / np.where(nearest > 0, nearest, 1.0), np.inf)
+        reach = np.where(nearest > 0, (path + 0.5 * stretch)[None]
+                         / np.where(nearest > 0, nearest, 1.0), np.inf)
         hit = np.abs(offset[:, :-1]) <= half_width + reach + turning[None] + slack  # (P, M-1)
         any_hit = hit.any(axis=1)
         low = hit.argmax(axis=1)

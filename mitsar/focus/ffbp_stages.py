@@ -285,17 +285,21 @@ def merge_band(stages: list[Stage], points: NDArray, frame: tuple[NDArray, NDArr
 
     The band of point x is the sweeps k with ``|g_k| <= h``, ``g_k = d . l_k - u`` (its
     aspect frame ``(d, u)``, :func:`mitsar.focus.aperture.aspect_frames`; ``l_k`` the unit
-    line of sight from sweep k to x), exact BPA's hard cut per pixel and sweep. Along a pass
-    ``g_k`` falls monotonically (the line of sight turns one way), so the band is one run of
-    sweeps ``[k_1, k_2)``, found by bisection inside ``sweep_range`` (float64). The run is
-    summed from pieces that are whole sub-apertures of any stage (the sub-aperture images,
-    interpolated at x and re-phased as in :func:`merge_points`; the largest aligned
+    line of sight from sweep k to x), with BPA's edge fractions: a sweep within half a
+    sweep's step of ``|g| = h`` counts by the part of its stretch inside
+    (:func:`mitsar.focus.backprojection.edge_fraction`). Along a pass ``g_k`` falls
+    monotonically (the line of sight turns one way), so the band is one run of sweeps
+    ``[k_1, k_2)`` (``|g_k| <= h``), found by bisection inside ``sweep_range`` (float64). The
+    run is summed from pieces that are whole sub-apertures of any stage (the sub-aperture
+    images, interpolated at x and re-phased as in :func:`merge_points`; the largest aligned
     sub-aperture that fits, then the next, as in a segment tree: at most ``2 (factor - 1)``
-    per stage) between the first-stage boundaries ``b_1 = ceil(k_1 / n_0) n_0`` and
-    ``b_2 = floor(k_2 / n_0) n_0``, and at its two ends (``[k_1 - 1, b_1)``, ``[b_2, k_2 + 1)``)
-    from single sweeps by BPA's own per-pulse sum (:func:`pixel_pulse
-    <mitsar.focus.backprojection.pixel_pulse>`, which applies the window and its float32
-    test of ``|g_k| <= h`` itself, so the edges are BPA's to the sweep). With a window other
+    per stage) between the first-stage boundaries ``b_1 = ceil((k_1 + 1) / n_0) n_0`` and
+    ``b_2 = floor((k_2 - 1) / n_0) n_0``, and at its two ends (``[k_1 - 1, b_1)``,
+    ``[b_2, k_2 + 1)``: the sweeps whose edge fraction may lie between 0 and 1, the first
+    and last of the run and one outside either end) from single sweeps by BPA's own
+    per-pulse sum (:func:`pixel_pulse <mitsar.focus.backprojection.pixel_pulse>`, which
+    applies the window and the edge fraction itself, so the edges are BPA's to the sweep;
+    the pieces hold sweeps at least one step inside, whose fraction is 1). With a window other
     than rect each piece's sweeps are weighted by :func:`_windowed_piece` (one more read of
     its image per harmonic of the window).
 
@@ -337,7 +341,8 @@ def merge_band(stages: list[Stage], points: NDArray, frame: tuple[NDArray, NDArr
     coefficients = np.zeros(4)
     coefficients[: len(window)] = window
     edge_constants = {**constants, "half_width": dr.opaque(Float32, half_width),
-                      "coefficients": [float(c) for c in coefficients]}
+                      "coefficients": [float(c) for c in coefficients],
+                      "fractional_edges": True}  # a band narrower than the beam
 
     # The band [k1, k2): bisection on g (falling along the pass), float64.
     d64 = [Float64(v) for v in direction]
@@ -362,8 +367,9 @@ def merge_band(stages: list[Stage], points: NDArray, frame: tuple[NDArray, NDArr
     k1 = bisect(half_width, strict=False)
     k2 = dr.maximum(bisect(-half_width, strict=True), k1)
     size0 = int(stages[0].end[0] - stages[0].first[0])
-    b1 = (k1 + (size0 - 1)) // size0 * size0
-    b2 = k2 // size0 * size0
+    # the first and last sweeps of the run go to the edges (their edge fraction may be < 1)
+    b1 = (k1 + size0) // size0 * size0
+    b2 = dr.select(k2 > 0, k2 - 1, 0) // size0 * size0
     empty = b2 <= b1
     stop = dr.minimum(k2 + 1, sweeps)
     b1 = dr.select(empty, stop, b1)
@@ -439,7 +445,8 @@ def merge_band(stages: list[Stage], points: NDArray, frame: tuple[NDArray, NDArr
     sin_phase, cos_phase = dr.sincos(Float32(2 * np.pi) * Float32(turns))
     real, imag = derotate(real, imag, sin_phase, cos_phase)
 
-    # Edges: single sweeps [k1 - 1, b1) and [b2, k2 + 1), BPA's per-pulse sum and window test.
+    # Edges: single sweeps [k1 - 1, b1) and [b2, k2 + 1), BPA's per-pulse sum, window and
+    # edge fraction.
     start = dr.select(k1 > 0, k1 - 1, k1)
     left = b1 - dr.minimum(start, b1)
     length = left + (stop - dr.minimum(b2, stop))
