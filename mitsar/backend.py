@@ -228,11 +228,11 @@ lies just below a power of two from 2^20 up: measured at ``2^22 - d`` for ``3 <=
 
 def safe_width(width: int) -> int:
     """The kernel width to launch for ``width`` lanes: ``width`` itself, or the next power of
-    two when ``width`` lies in the band below it where Dr.Jit 1.5 crashes
-    (:data:`UNSAFE_WIDTH_BAND`); callers pad their lanes to it and drop the extra results."""
+    two (from 2^20 up) when ``width`` lies in the band below it where Dr.Jit 1.5 crashes
+    (:data:`UNSAFE_WIDTH_BAND`: 2^20 - 8 included, which crashed back-projection); callers
+    pad their lanes to it (lanes that contribute nothing) and drop the extra results."""
     width = int(width)
-    if width >= 2**20:
-        power = 1 << (width - 1).bit_length()
-        if 0 < power - width < UNSAFE_WIDTH_BAND:
-            return power
+    power = 1 << max(width - 1, 0).bit_length()  # the smallest power of two >= width
+    if power >= 2**20 and 0 < power - width < UNSAFE_WIDTH_BAND:
+        return power
     return width
