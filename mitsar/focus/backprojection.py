@@ -35,11 +35,11 @@ import math
 from collections.abc import Callable
 from typing import Any
 
-import drjit as dr
 import numpy as np
 from numpy.typing import NDArray
 
 from mitsar.backend import array_namespace, namespace_of, safe_width
+from mitsar.backend import drjit as dr  # imported when a kernel runs (LazyModule)
 from mitsar.focus.aperture import aperture_half_width, doppler_geometry, median_sweep_interval
 from mitsar.focus.windows import cosine_series, evaluate_window
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar

@@ -55,11 +55,11 @@ from __future__ import annotations
 import math
 from typing import Any
 
-import drjit as dr
 import numpy as np
 from numpy.typing import NDArray
 
 from mitsar.backend import array_namespace, namespace_of, safe_width
+from mitsar.backend import drjit as dr  # imported when a kernel runs (LazyModule)
 from mitsar.focus.backprojection import (
     SMALLEST_WINDOW_STEP,
     backproject_drjit,

@@ -17,15 +17,16 @@ sub-aperture's frame (:func:`polar_node`, float64). Kernels:
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from types import ModuleType
 from typing import Any
 
-import drjit as dr
 import numpy as np
 from numpy.typing import NDArray
 
+from mitsar.backend import drjit as dr  # imported when a kernel runs (LazyModule)
 from mitsar.backend import namespace_of
 from mitsar.focus.backprojection import (
     carrier_turns,
@@ -43,9 +44,14 @@ __all__ = ["LANE_NODES", "Stage", "first_stage", "merge_band", "merge_nodes", "m
 LANE_NODES = 4
 """First-stage nodes per kernel lane (consecutive in angle; one sweep gather for all)."""
 
-# Dr.Jit's side of the ops namespace for the node formula (only sqrt, maximum, minimum, where
-# are used; mitsar.plugins.ops would load Mitsuba).
-_JIT_OPS = NUMPY_OPS._replace(sqrt=dr.sqrt, maximum=dr.maximum, minimum=dr.minimum,
+
+
+@functools.cache
+def _jit_ops() -> ArrayOps:
+    """Dr.Jit's side of the ops namespace for the node formula (only sqrt, maximum, minimum,
+    where are used; mitsar.plugins.ops would load Mitsuba), made when a kernel first needs it
+    (Dr.Jit is imported then, :data:`mitsar.backend.drjit`)."""
+    return NUMPY_OPS._replace(sqrt=dr.sqrt, maximum=dr.maximum, minimum=dr.minimum,
                               floor=dr.floor, where=dr.select)
 
 _FRAME_FIELDS = ("cx", "cy", "cz", "ax", "ay", "az", "ux", "uy", "uz", "wx", "wy", "wz",
@@ -160,7 +166,7 @@ def _lane_node(stage: Stage, frame: dict[str, Any], lane: Any, per_lane: int
         alpha = dr.clip(gathered["alpha0"] + Float64(i_alpha + g)
                         * dr.opaque(Float64, stage.alpha_step), -1.0, 1.0)
         alphas.append(alpha)
-        nodes.append(polar_node(rho, alpha, gathered, _JIT_OPS))
+        nodes.append(polar_node(rho, alpha, gathered, _jit_ops()))
     return j, rho, alphas, nodes
 
 
