@@ -204,16 +204,37 @@ INTEGER_KEYS = {"seed", "scatterers_per_cell", "max_states", "rays", "max_depth"
 
 MEMORY_CASES = {
     "simulate": [("background.size", [1e6, 1e6]), ("radar.sampling_frequency", 1e15),
-                 ("trajectory.duration", 1e12), ("focus.grid.along_track", [-1e3, 1e3, 1e-6]),
+                 ("trajectory.duration", 1e4), ("focus.grid.along_track", [-1e3, 1e3, 1e-6]),
                  ("background.scatterers_per_cell", 10**12), ("focus.grid.slant_range",
                                                               [0.0, 30.0, 1e-9])],
-    "montecarlo": [("background.size", [1e6, 1e6]), ("trajectory.duration", 1e12),
+    "montecarlo": [("background.size", [1e6, 1e6]), ("trajectory.duration", 1e4),
                    ("focus.grid.slant_range", [0.0, 30.0, 1e-9])],
-    "rays": [("simulation.scatterer_density", 1e12), ("trajectory.duration", 1e12)],
+    "rays": [("simulation.scatterer_density", 1e12), ("trajectory.duration", 1e4)],
     "ambiguity": [("ambiguity.spacing", 1e-6), ("ambiguity.max_states", 10**18),
                   ("trajectories.paper_pass.duration", 1e12)],
 }
 """Requests too large for any machine (issue #15): refused before any work, key named."""
+
+
+LOAD_CASES = {
+    "simulate": [("metrics.target", [1e300, 8.0, 0.0]), ("simulation.slab_width", 1e300),
+                 ("simulation.max_depth", 100), ("simulation.orders", [1e300]),
+                 ("simulation.rays", 10**15), ("metrics.islr_extent", 1e300),
+                 ("trajectory.errors.position_noise", [1e300, 0.0, 0.0]),
+                 ("radar.noise_figure_db", 1e300), ("background.cell_rcs_db", -1e300),
+                 ("trajectory.velocity", [1e300, 0.0, 0.0])],
+    "montecarlo": [("simulation.slab_width", 1e300), ("metrics.islr_extent", 1e300)],
+    "rays": [("simulation.slab_width", 1e300), ("simulation.ray_cover", 1e300),
+             ("simulation.plane_normal", [1e300, 0.0, 0.0]), ("metrics.target", [1e300, 8, 0]),
+             ("simulation.scatterer_density", 1e300), ("trajectory.duration", 1e300)],
+    "ambiguity": [("ambiguity.integration_time", 1e300), ("required_resolution", [1e300, 0.1]),
+                  ("surfaces[1].name", "__same__"), ("surfaces[0].axis_u", [1e300, 0.0, 0.0]),
+                  ("trajectories.paper_pass.velocity", [1e300, 0.0, 0.0])],
+}
+"""Issue 27 item 2: every section validated at load whatever the command, keys the command
+does not use included (``[metrics] target`` for ``simulate`` and ``rays``, a 1e300 slab for
+``simulate``); ``__same__`` gives the surface the name of ``surfaces[0]`` (two surfaces of one
+name)."""
 
 
 def _leaves(document: Any, prefix: str = "") -> list[tuple[str, Any]]:
@@ -311,6 +332,11 @@ def _toml_cases(family: str, document: dict, rng: random.Random, count: int,
     for key, value in MEMORY_CASES[family]:
         cases.append(_toml_case(family, document, f"memory {key}", key, value, True,
                                 (_last(key),)))
+    for key, value in LOAD_CASES[family]:
+        if value == "__same__":
+            value = document["surfaces"][0].get("name", "surface0")
+        cases.append(_toml_case(family, document, f"load {key}={value!r}"[:120], key, value,
+                                True, (_last(key),)))
     for _ in range(count - len(cases)):
         op = rng.random()
         if op < 0.08:  # an unknown key
@@ -425,12 +451,14 @@ def _xml_cases(rng: random.Random, count: int, fast: bool) -> list[Case]:
         ("bad preset", SCENE_SHELL.format(body=FLOOR.format(
             bsdf='<bsdf type="doublelobe"><string name="preset" value="bogus_preset"/></bsdf>')),
          True, ("bogus_preset", "preset")),
+        ("rendering integrator", SCENE_SHELL.format(body='<integrator type="path"/>' + FLOOR.format(
+            bsdf='<bsdf type="doublelobe"/>')), True, ("integrator",)),
         ("absorbing floor only", SCENE_SHELL.format(body=FLOOR.format(
             bsdf='<bsdf type="doublelobe"><string name="preset" value="absorber"/></bsdf>')),
          True, ("zeros", "beam", "nothing")),
     ]
     for name, text, invalid, tokens in fixed:
-        simulate = "zeros" in tokens
+        simulate = "zeros" in tokens or "integrator" in tokens  # said when traced
         cases.append(_xml_case(name, text, invalid, tokens, simulate))
     while len(cases) < count:
         op = rng.random()
@@ -507,6 +535,12 @@ BAD = {"str": "abc", "none": None, "pair": [1.0, 2.0], "ragged": [[1.0, 2.0, 3.0
        "dict": {"a": 1}, "fraction": 1.5}
 
 
+KNOTS = [[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [2.0, 0.0, 1.0]]
+"""Navigation knots of the API cases (one per second: 1 m/s)."""
+LEGS = [[0.0, 0.0, 1.0], [4.0, 0.0, 1.0], [4.0, 4.0, 1.0]]
+"""Flight waypoints of the API cases: two 4 m legs, a turn of up to 4 m radius between."""
+
+
 def _api_specs() -> list[tuple[str, Callable[[Any], Any], str, set[str]]]:
     """(callable name, call with one bad value, parameter, labels of BAD that are valid)."""
     import mitsar  # noqa: PLC0415
@@ -527,12 +561,50 @@ def _api_specs() -> list[tuple[str, Callable[[Any], Any], str, set[str]]]:
         ("Trajectory.linear", lambda v: mitsar.Trajectory.linear(good_track[0], v, 0.4),
          "velocity", set()),
         ("Trajectory.linear", lambda v: mitsar.Trajectory.linear(*good_track[:2], v),
-         "duration", {"fraction", "huge"}),
+         "duration", {"fraction"}),  # 1e300 s: beyond MAX_DURATION (issue 27)
         ("Trajectory.waypoints", lambda v: mitsar.Trajectory.waypoints(v, 0.5), "points",
          set()),
         ("Trajectory.waypoints", lambda v: mitsar.Trajectory.waypoints(
-            [[0, 0, 1], [1, 0, 1]], v), "speed", {"fraction", "huge"}),  # as duration: the
-        # PRF check of a simulation refuses it, the track itself is well defined
+            [[0, 0, 1], [1, 0, 1]], v), "speed", {"fraction"}),  # 1e300 m/s: beyond MAX_SPEED
+        # issue 27: a bad entry in navigation data, a bad flight parameter, a bad time
+        ("Trajectory.navigation", lambda v: mitsar.Trajectory.navigation(
+            [0.0, v, 2.0], KNOTS), "times", {"fraction", "bool"}),
+        ("Trajectory.navigation", lambda v: mitsar.Trajectory.navigation(
+            [0.0, 1.0, 2.0], [[0, 0, 1], [v, 0, 1], [2, 0, 1]]), "positions",
+         {"fraction", "zero", "neg", "bool"}),
+        ("Trajectory.navigation", lambda v: mitsar.Trajectory.navigation(
+            [0.0, 1.0, 2.0], KNOTS, [[1, 0, 0], [v, 0, 0], [1, 0, 0]]), "velocities",
+         {"fraction", "zero", "neg", "bool"}),
+        ("Trajectory.navigation", lambda v: mitsar.Trajectory.navigation(
+            [0.0, 1.0, 2.0], KNOTS, attitude_deg=[[0, 0, 0], [v, 0, 0], [0, 0, 0]]),
+         "attitude_deg", {"fraction", "zero", "neg", "bool"}),
+        ("Trajectory.navigation", lambda v: mitsar.Trajectory.navigation(
+            [0.0, 1.0, 2.0], KNOTS, heading_smoothing=v), "heading_smoothing",
+         {"fraction", "zero"}),
+        ("Trajectory.flight", lambda v: mitsar.Trajectory.flight(LEGS, v), "speed",
+         {"fraction", "pair"}),  # a pair: one speed per leg
+        ("Trajectory.flight", lambda v: mitsar.Trajectory.flight(LEGS, 0.5, turn_radius=v),
+         "turn_radius", {"fraction", "zero"}),
+        ("Trajectory.flight", lambda v: mitsar.Trajectory.flight(
+            LEGS, 0.5, acceleration=1.0, hover=v), "hover", {"fraction", "zero"}),
+        ("Trajectory.flight", lambda v: mitsar.Trajectory.flight(LEGS, 0.5, acceleration=v),
+         "acceleration", {"fraction", "none"}),
+        ("Trajectory.flight", lambda v: mitsar.Trajectory.flight(LEGS, 0.5, sample_rate=v),
+         "sample_rate", {"fraction"}),
+        ("Trajectory.position", lambda v: mitsar.Trajectory.linear(*good_track).position(v),
+         "time", {"zero"}),
+        ("Trajectory.velocity", lambda v: mitsar.Trajectory.navigation(
+            [0.0, 1.0, 2.0], KNOTS).velocity([0.5, v]), "time", {"zero", "fraction", "bool"}),
+        # issue 27: a wrong argument class at the public API (mitsar.errors.public)
+        ("measure_impulse_response", lambda v: mitsar.measure_impulse_response(
+            v, (15.0, 8.0, 0.0)), "image", set()),
+        ("save", lambda v: mitsar.save(v, "/nonexistent-fuzz-folder/x.nc"), "ds", set()),
+        ("read_raw", lambda v: mitsar.read_raw(v), "path", set()),
+        ("read_cphd", lambda v: mitsar.read_cphd(v), "path", set()),
+        ("simulate_point_targets", lambda v: mitsar.simulate_point_targets(
+            mitsar.Radar(), v, mitsar.Look(55.71), []), "trajectory", set()),
+        ("simulate_point_targets", lambda v: mitsar.simulate_point_targets(
+            mitsar.Radar(), mitsar.Trajectory.linear(*good_track), v, []), "look", set()),
         ("Look", lambda v: mitsar.Look(v), "off_nadir_deg", {"zero", "fraction"}),
         ("Look", lambda v: mitsar.Look(45.0, v), "squint_deg", {"zero", "fraction", "neg"}),
         ("PointTarget", lambda v: mitsar.PointTarget(v), "position", set()),
@@ -604,6 +676,84 @@ def _unreceived(distance: float | None) -> Any:
                                          [mitsar.PointTarget(target)])
 
 
+def _edge_channel(folder: Path) -> Any:
+    """An interferometer whose second receiver sits 5 cm behind the antenna along the line of
+    sight, with a target 5 mm inside ``max_range`` at the far end of the pass: the reference
+    point receives it, channel 1's half path does not (issue 27: reception per channel)."""
+    import numpy as np  # noqa: PLC0415
+
+    import mitsar  # noqa: PLC0415
+
+    track = mitsar.Trajectory.linear([14.8, 1.4, 4.5], [0.5, 0.0, 0.0], 0.4)
+    middle = np.asarray(track.position(0.2))
+    aim = np.array([15.0, 8.0, 0.3])
+    sight = (aim - middle) / np.linalg.norm(aim - middle)
+    radar = mitsar.Radar(max_range=8.0, receivers=[(0.0, 0.0, 0.0), tuple(-0.05 * sight)])
+    far = max(np.linalg.norm(aim - track.position(t)) for t in (0.0, 0.4))
+    target = middle + (8.0 - 0.005 - far + np.linalg.norm(aim - middle)) * sight
+    return mitsar.simulate_point_targets(radar, track, mitsar.Look(55.7),
+                                         [mitsar.PointTarget(target)])
+
+
+def _edge_pass(folder: Path) -> Any:
+    """Two passes of the paper's point target, the second 3 m further away: its echo is beyond
+    ``max_range`` = 9 m (issue 27: reception per pass)."""
+    from mitsar.experiment import experiment_from_dict, simulate_passes  # noqa: PLC0415
+
+    document = base_documents()["simulate"]
+    document["radar"]["max_range"] = 9.0
+    document["trajectory"]["duration"] = 0.2
+    document["passes"] = [{"name": "near"}, {"name": "far", "offset": [0.0, -3.0, 0.0]}]
+    document.pop("background", None)
+    return simulate_passes(experiment_from_dict(document, folder / "passes.toml"))
+
+
+def _text_file_case(kind: str) -> Callable[[Path], Any]:
+    """Load a file that is not text through the Python API (issue 27): an experiment, an
+    ambiguity configuration, a navigation CSV an experiment names."""
+    def action(folder: Path) -> Any:
+        binary = folder / ("binary.csv" if kind == "navigation" else "binary.toml")
+        binary.write_bytes(b"\x80\x81\xff\x00 not text")
+        if kind == "experiment":
+            from mitsar.experiment import load_experiment  # noqa: PLC0415
+
+            return load_experiment(binary)
+        if kind == "ambiguity":
+            from mitsar.ambiguity import load_ambiguity_experiment  # noqa: PLC0415
+
+            return load_ambiguity_experiment(binary)
+        from mitsar.experiment import experiment_from_dict  # noqa: PLC0415
+
+        document = base_documents()["simulate"]
+        document["trajectory"] = {"kind": "navigation", "file": str(binary)}
+        return experiment_from_dict(document, folder / "nav.toml")
+    return action
+
+
+def _issue27_api_cases() -> list[tuple[str, Callable[[Path], Any], tuple[str, ...]]]:
+    """Fixed API cases of issue 27's checks (each invalid by construction)."""
+    def boresight(folder: Path) -> Any:
+        import mitsar  # noqa: PLC0415
+
+        return mitsar.boresight(mitsar.Look(55.7), "north")
+
+    def missing_scene(folder: Path) -> Any:
+        import mitsar  # noqa: PLC0415
+
+        return mitsar.trace(mitsar.Radar(), mitsar.Trajectory.linear(
+            [14.8, 1.4, 4.5], [0.5, 0, 0], 0.02), mitsar.Look(55.7))
+
+    return [("interferometer: target out of band for channel 1 only", _edge_channel,
+             ("channels [1]",)),
+            ("passes: the far pass beyond max_range", _edge_pass, ("beyond max_range",)),
+            ("load_experiment(binary file)", _text_file_case("experiment"), ("binary.toml",)),
+            ("load_ambiguity_experiment(binary file)", _text_file_case("ambiguity"),
+             ("binary.toml",)),
+            ("navigation CSV not text", _text_file_case("navigation"), ("file",)),
+            ("boresight(heading='north')", boresight, ("heading",)),
+            ("trace without a scene", missing_scene, ("scene",))]
+
+
 def _api_cases(rng: random.Random, count: int, fast: bool) -> list[Case]:
     specs = _api_specs()
     extra = [
@@ -628,6 +778,8 @@ def _api_cases(rng: random.Random, count: int, fast: bool) -> list[Case]:
     ]
     cases = [Case("api", name, True, tokens, (lambda f: lambda folder: f())(func))
              for name, func, tokens in extra]
+    cases += [Case("api", name, True, tokens, action) for name, action, tokens in
+              _issue27_api_cases()]
     while len(cases) < count:
         where, call, parameter, valid = rng.choice(specs)
         label = rng.choice(sorted(BAD))
@@ -643,7 +795,8 @@ def _api_cases(rng: random.Random, count: int, fast: bool) -> list[Case]:
         def action(folder: Path, call: Callable = call, value: Any = value) -> Any:
             return call(copy.deepcopy(value))
 
-        cases.append(Case("api", f"{where}({parameter}={label})", invalid, (parameter,),
+        tokens = (parameter, value) if label == "str" else (parameter,)  # a missing file: named
+        cases.append(Case("api", f"{where}({parameter}={label})", invalid, tokens,
                           action, compute=heavy and not invalid))
     return cases
 
@@ -904,6 +1057,7 @@ def worker(seed: int, count: int, fast: bool, families: tuple[str, ...], start: 
     """Run cases ``start ..`` in folders under ``root`` (the parent's, which it removes even
     when a worker is killed) and write one JSON line per case to ``result_fd``."""
     cases = generate(count, seed, fast, families)
+    os.chdir(root)  # a case that writes a relative path ("abc") writes into the campaign's folder
     out = os.fdopen(result_fd, "w", buffering=1)
     for index in range(start, len(cases)):
         case = cases[index]

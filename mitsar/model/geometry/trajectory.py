@@ -178,6 +178,9 @@ def _check_flight(points: ArrayLike, speed: float | ArrayLike, turn_radius: obje
         raise ParameterError(where, "points", "at least 2 waypoints of 3 finite numbers [m]",
                              _shown(points.tolist()))
     _check_positions("points", points, "waypoints [m]", where)
+    if isinstance(speed, bool | np.bool_):
+        raise ParameterError(where, "speed", "a speed > 0 m/s or one per leg (a number, not a "
+                             "bool)", speed)
     speeds = _array("speed", speed, "a speed > 0 m/s or one per leg", where)
     speeds = np.broadcast_to(speeds, (len(points) - 1,)) if speeds.ndim == 0 else speeds
     if speeds.shape != (len(points) - 1,) or not np.all((speeds > 0) & (speeds <= MAX_SPEED)):
