@@ -23,7 +23,7 @@ import importlib
 import os
 import subprocess
 import sys
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from types import ModuleType
 from typing import Any
 
@@ -53,6 +53,24 @@ class LazyModule(ModuleType):
 
 drjit = LazyModule("drjit")
 """Dr.Jit, imported when a kernel first uses it (:class:`LazyModule`)."""
+
+
+def syntax(function: Callable[..., Any]) -> Callable[..., Any]:
+    """``@drjit.syntax`` applied on the function's first call rather than at its definition
+    (which would import Dr.Jit with the module); the transformed function is kept.
+
+    ``drjit.syntax`` rewrites the function from its source, so applying it later gives the
+    same function.
+    """
+    transformed: list[Callable[..., Any]] = []
+
+    @functools.wraps(function)
+    def run(*args: Any, **kwargs: Any) -> Any:
+        if not transformed:
+            transformed.append(drjit.syntax(function))
+        return transformed[0](*args, **kwargs)
+
+    return run
 
 LLVM_FIX = ("install a newer LLVM (Debian 12: 'apt-get install libllvm19', or 'make setup'), "
             "or point DRJIT_LIBLLVM_PATH at libLLVM.so of version >= 16")
