@@ -21,7 +21,7 @@ import xarray as xr
 from numpy.typing import NDArray
 from tqdm.auto import tqdm
 
-from mitsar.backend import array_namespace, namespace_of, safe_width
+from mitsar.backend import array_namespace, namespace_of, safe_width, syntax
 from mitsar.backend import drjit as dr  # imported when a kernel runs (LazyModule)
 from mitsar.budget import require_memory
 from mitsar.checks import integer
@@ -722,7 +722,7 @@ def _lane_delay(dx: Any, dy: Any, dz: Any, qx: Any, qy: Any, qz: Any, receiver: 
     return (outgoing + dr.sqrt(ex * ex + ey * ey + ez * ez)) / SPEED_OF_LIGHT
 
 
-@dr.syntax
+@syntax  # drjit.syntax, applied on the first call (mitsar.backend.syntax)
 def _echo_loop(px, py, pz, absolute_time, fast, qx, qy, qz, vx, vy, vz, amp_real,  # noqa: ANN001, ANN202
                amp_imag, carrier, chirp_rate, rvp, scatterers, sample_count, receiver=None):
     """Per sample lane: sum over scatterers of a exp{j 2 pi [f_c tau + K tau t - rvp K tau^2/2]}
