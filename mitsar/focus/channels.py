@@ -273,13 +273,14 @@ def compensate_channel(raw: xr.Dataset, radar: Radar, layout: dict) -> xr.Datase
     if not any(np.any(offset) for offset in offsets):
         return out
     error, monostatic = channel_path_error(raw, layout)
-    ahead, _ = channel_path_error(raw, layout, RATE_STEP)
-    behind, _ = channel_path_error(raw, layout, -RATE_STEP)
     r = np.asarray(layout["coords"]["range"], dtype=float)
     centre = int(np.argmin(np.abs(r - 0.5 * (r.min() + r.max()))))
+    at_centre = dict(layout, coords={"range": r[centre:centre + 1]})
+    ahead, _ = channel_path_error(raw, at_centre, RATE_STEP)
+    behind, _ = channel_path_error(raw, at_centre, -RATE_STEP)
     t = fast_time(radar)
     dtau = 2.0 * error[:, centre] / SPEED_OF_LIGHT
-    dtau_rate = (ahead[:, centre] - behind[:, centre]) / (RATE_STEP * SPEED_OF_LIGHT)
+    dtau_rate = (ahead[:, 0] - behind[:, 0]) / (RATE_STEP * SPEED_OF_LIGHT)
     samples = np.asarray(raw["raw"].values, dtype=complex) * np.exp(-2j * np.pi * (
         radar.carrier_frequency * dtau[:, None]
         + (radar.chirp_rate * dtau[:, None] + radar.carrier_frequency * dtau_rate[:, None])
