@@ -8,6 +8,13 @@ frame of the **mean track** (the velocity averaged over three passes of a 1 s bo
 :func:`mitsar.model.geometry.aperture.mean_track_velocity`), so the processed aperture and the
 point response do not change: azimuth IRW within 1 % and PSLR within 0.3 dB of the straight
 track's (closed forms: 0.886 rho, -13.26 dB for a rectangular aperture), for BPA and FFBP.
+The edge sweeps of the band count by the part of their stretch of aperture inside it
+(mitsar.focus.backprojection.edge_fraction), so the aperture does not jump by a sweep from
+pixel to pixel. A band chosen per pixel (as on any track that is not straight and uniform)
+sees the point through the antenna pattern d / R off the pixel's own line of sight, which
+lowers its PSLR below the straight track's Doppler band by a closed form (0.09 dB at
+rho = 5 cm, 0.36 dB at 10 cm), wander or not: at 10 cm the wander is compared with the
+straight track's per-pixel band.
 
 Navigation data without attitude get the mean track's heading by default
 (``Trajectory.navigation(..., heading="mean")``); ``heading="velocity"`` swings the beam with
@@ -26,7 +33,9 @@ import numpy as np
 import pytest
 
 import mitsar
-from mitsar.focus.aperture import aspect_frames, mean_track_frame
+from mitsar.focus.aperture import aperture_half_width, aspect_frames, mean_track_frame
+from mitsar.focus.bpa import focus_bpa
+from mitsar.focus.ffbp import focus_ffbp
 from mitsar.focus.grid import PointsGrid
 from mitsar.model.geometry.aperture import MEAN_TRACK_TIME, mean_track_velocity
 from mitsar.quality.cuts import irw, pslr_db
@@ -74,6 +83,26 @@ def _response(track: mitsar.Trajectory, x: float, algorithm: str = "bpa",
     image = mitsar.focus(raw, algorithm=algorithm, azimuth_resolution=rho,
                          grid=PointsGrid(target + offsets[:, None] * np.array([1.0, 0, 0])))
     cut = image["image"].values.ravel()
+    return irw(cut, spacing_cells=spacing / rho), pslr_db(cut)
+
+
+def _band_response(track: mitsar.Trajectory, x: float, algorithm: str, rho: float,
+                   band_selection: str) -> tuple[float, float]:
+    """As :func:`_response` (focus()'s defaults), with the band selection chosen: "pixel"
+    on a straight track gives it the per-pixel band a wandering track gets."""
+    target = _target(x)
+    raw = mitsar.simulate_point_targets(RADAR, track, LOOK, [mitsar.PointTarget(target)],
+                                        normalized=True)
+    spacing = rho / 40
+    offsets = np.arange(-3 * rho, 3 * rho + 1e-9, spacing)
+    pixels = target + offsets[:, None] * np.array([1.0, 0, 0])
+    common = {"half_width": aperture_half_width(RADAR, rho), "window": "rect",
+              "range_window": "rect", "remove_rvp": True, "motion_correction": True,
+              "range_upsample": 16, "band_selection": band_selection}
+    if algorithm == "bpa":
+        cut = focus_bpa(raw, pixels, backend="drjit", pixel_chunk=1 << 20, **common)[0]
+    else:
+        cut = focus_ffbp(raw, pixels, **common)[0]
     return irw(cut, spacing_cells=spacing / rho), pslr_db(cut)
 
 
@@ -125,12 +154,13 @@ def test_wander_leaves_the_azimuth_response_of_the_straight_track(algorithm):
     3 cm: azimuth IRW within 1 % and PSLR within 0.3 dB of the straight track's (its default
     image: Doppler band selection), at three phases of the wander.
 
-    Measured (BPA / FFBP, rho = 5 cm): straight 0.8899 / 0.8860-0.8871 cells, -13.46 /
-    -13.46..-13.48 dB; 3 cm wander 0.8879-0.8905 / 0.8874-0.8898, -13.45..-13.54 /
-    -13.41..-13.53 dB. Before the mean-track frame, 3 cm moved BPA's IRW by -3 % at
-    rho = 10 cm. At rho = 10 cm (64 sweeps per aperture) the hard cut of the aperture at whole
-    sweeps leaves +-1.5 % of IRW from pixel to pixel whatever the track (docs/focusing.md,
-    "An aperture that ignores the wander"), so the bound is shown at 5 cm.
+    Measured (BPA / FFBP, rho = 5 cm, edge fractions): straight 0.8898-0.8899 /
+    0.8860-0.8870 cells, -13.45..-13.46 / -13.46..-13.48 dB; 2 mm and 3 cm wander
+    0.8875-0.8896 / 0.8870-0.8890, -13.45..-13.54 / -13.40..-13.54 dB. Before the mean-track
+    frame, 3 cm moved BPA's IRW by -3 % at rho = 10 cm. At 10 cm the per-pixel band a
+    wandering track gets sits 0.35 dB below the straight track's Doppler band in PSLR by the
+    antenna pattern, wander or not (the next two tests), so 10 cm is compared with the
+    straight track's per-pixel band.
     """
     try:
         reference = [_response(_straight(), x, algorithm) for x in TARGETS]
@@ -145,6 +175,61 @@ def test_wander_leaves_the_azimuth_response_of_the_straight_track(algorithm):
                         "not straight and uniform (issue 24 item 2)")
         raise
     assert reference[0][0] == pytest.approx(0.886 * 1.004, rel=0.01)  # closed form, 0.886 rho
+
+
+@pytest.mark.parametrize("algorithm", ["bpa", "ffbp"])
+def test_wander_at_10_cm_leaves_the_per_pixel_band_response(algorithm):
+    """At rho = 10 cm (64 sweeps per aperture) the wander's response equals the straight
+    track's *per-pixel band* response (the band selection a wandering track gets) within
+    1 % of IRW and 0.3 dB of PSLR: the edge sweeps count by the part of their stretch inside
+    the band (mitsar.focus.backprojection.edge_fraction), so the aperture no longer jumps by
+    a sweep from pixel to pixel.
+
+    Measured (BPA / FFBP): straight, per-pixel band 0.8821 / 0.8804-0.8820 cells, -13.67 /
+    -13.64..-13.66 dB; 2 mm and 3 cm wander 0.8803-0.8841 / 0.8788-0.8842, -13.65..-13.69 /
+    -13.64..-13.68 dB. The straight track's default image (Doppler band selection,
+    0.8866 cells, -13.33 dB) is 0.35 dB higher in PSLR by the antenna pattern, wander or not
+    (next test)."""
+    rho = 0.1
+    reference = [_band_response(_straight(), x, algorithm, rho, "pixel") for x in TARGETS]
+    for amplitude in (0.002, 0.03):
+        for x, (irw_0, pslr_0) in zip(TARGETS, reference, strict=True):
+            width, sidelobe = _response(_wander(amplitude), x, algorithm, rho)
+            assert width == pytest.approx(irw_0, rel=0.01), (amplitude, x)
+            assert sidelobe == pytest.approx(pslr_0, abs=0.3), (amplitude, x)
+
+
+def _pattern_pslr(rho: float, per_pixel: bool) -> float:
+    """PSLR [dB] of the azimuth response of a band ``|u| <= h`` (h = lambda / (4 rho)) over
+    which the echo carries the two-way pattern ``sinc^2(u / beta)`` (beta = lambda / l_AZ,
+    mitsar.model.geometry.antenna): ``|I(d)| = |int A(u - s d / R) exp(j 4 pi d u / lambda)
+    du|``, s = 0 for the Doppler band (the echo's own band: the same for every pixel),
+    s = 1 for a per-pixel band (the pixel at along-track offset d sees the point d / R off
+    its own line of sight; R the slant range)."""
+    h = RADAR.wavelength / (4 * rho)
+    slant = HEIGHT / math.cos(math.radians(LOOK.off_nadir_deg))
+    u = np.linspace(-h, h, 2001)
+    d = np.linspace(0.0, 3 * rho, 1501)
+    shift = d[:, None] / slant if per_pixel else 0.0
+    amplitude = np.sinc((u[None] - shift) / RADAR.azimuth_beamwidth) ** 2
+    response = np.abs(np.trapezoid(amplitude * np.exp(4j * np.pi / RADAR.wavelength
+                                                      * d[:, None] * u[None]), u, axis=1))
+    null = int(np.argmax(np.diff(response) > 0))
+    return 20 * math.log10(response[null:].max() / response[0])
+
+
+@pytest.mark.parametrize("rho", [0.05, 0.1])
+def test_per_pixel_band_sees_the_antenna_pattern_off_the_pixel(rho):
+    """Straight track, no wander: the per-pixel band's PSLR lies below the Doppler band's by
+    the two-way pattern the sidelobe pixel sees the point through, d / R off its own line of
+    sight (closed form :func:`_pattern_pslr`; 0.09 dB at 5 cm, 0.36 dB at 10 cm, where the
+    first sidelobe is 1.43 rho / R = 0.018 off, two-way sinc^2 -0.36 dB). Both selections
+    within 0.05 dB of the closed form (measured: 5 cm -13.455 / -13.536 dB against -13.454 /
+    -13.540; 10 cm -13.329 / -13.674 against -13.309 / -13.666). With a four times wider
+    beam the two agree (0.8854 / 0.8855 cells, -13.28 / -13.30 dB at 10 cm, measured)."""
+    for selection in ("doppler", "pixel"):
+        _, sidelobe = _band_response(_straight(), TARGETS[1], "bpa", rho, selection)
+        assert sidelobe == pytest.approx(_pattern_pslr(rho, selection == "pixel"), abs=0.05)
 
 
 # --- the default heading of navigation data without attitude ------------------------------
