@@ -85,7 +85,7 @@ def _public(name: str) -> Any:
         return importlib.import_module(_MODULES[name])
     value = getattr(importlib.import_module(_EXPORTS[name]), name)
     if isinstance(value, types.FunctionType):
-        if name not in _CHECKED:
+        if getattr(_CHECKED.get(name), "__wrapped__", None) is not value:  # new, or patched
             _CHECKED[name] = public(value, module=__name__)
         value = _CHECKED[name]
     return value
