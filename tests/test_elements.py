@@ -27,6 +27,7 @@ from mitsar.model.elements import (
 )
 from mitsar.model.geometry.antenna import direction_sines, field_pattern
 from mitsar.model.geometry.attitude import antenna_frame, body_to_world
+from mitsar.raw.analytic import stream_point_targets
 
 TRACK = mitsar.Trajectory.linear([14.8, 1.4, 4.5], [0.5, 0.0, 0.0], 0.2)
 LOOK = mitsar.Look(55.7)
@@ -88,6 +89,16 @@ def test_a_receiver_whose_beam_misses_the_target_gets_nothing_and_a_warning():
         raw = _simulate(radar, backend="numpy")
     level = np.abs(raw["raw"].values[1]).max() / np.abs(raw["raw"].values[0]).max()
     assert 0 < level < 10 ** (-20 / 20)
+
+
+def test_streamed_chunks_with_elements_are_the_simulation():
+    radar = mitsar.Radar(receivers=[(0, 0, 0), {"position": (0, 0, 0.05),
+                                                 "off_nadir_deg": 60.0}])
+    whole = _simulate(radar, backend="numpy")["raw"].values
+    chunks = stream_point_targets(radar, TRACK, LOOK, [mitsar.PointTarget(TARGET)],
+                                         backend="numpy", sweeps_per_chunk=16)
+    streamed = np.concatenate([chunk["raw"].values for chunk in chunks], axis=1)
+    assert np.array_equal(streamed, whole)
 
 
 def test_elements_that_are_the_radars_antenna_give_todays_samples_bit_for_bit():
