@@ -53,7 +53,7 @@ def preview(path: str | Path, out: str | Path, overwrite: bool = False) -> Path:
     scene = scene_or_stand_in(None if scene_name is None else load_scene(scene_name), planes,
                               points, geometry.position)
     figure = plot_preview(scene, radar, look, geometry.position, geometry.attitude,
-                          title=title)
+                          title=title, targets=np.array(points).reshape(-1, 3))
     written = save_figure(figure, out, overwrite=overwrite, dpi=110)
     plt.close(figure)
     return written

@@ -27,7 +27,8 @@ __all__ = ["Camera", "View", "project", "render_view", "shape_kinds", "stand_in_
 @dataclass(frozen=True)
 class Camera:
     """A pinhole camera: position, look-at point, up vector [m], horizontal field of view
-    [deg] and the picture size [pixels]."""
+    [deg], the picture size [pixels] and the near clip distance [m] (nothing nearer is seen:
+    a view from above can look through a ceiling)."""
 
     origin: tuple[float, float, float]
     target: tuple[float, float, float]
@@ -35,6 +36,7 @@ class Camera:
     fov_deg: float = 60.0
     width: int = 640
     height: int = 480
+    near_clip: float = 0.01
 
     def frame(self) -> tuple[NDArray, NDArray, NDArray]:
         """Unit vectors (left, up, forward) of Mitsuba's ``look_at``."""
@@ -68,6 +70,7 @@ def render_view(scene: Any, camera: Camera) -> View:
 
     sensor = mi.load_dict({
         "type": "perspective", "fov": float(camera.fov_deg), "fov_axis": "x",
+        "near_clip": float(camera.near_clip), "far_clip": float(camera.near_clip) + 1e4,
         "to_world": mi.ScalarTransform4f().look_at(origin=list(camera.origin),
                                                    target=list(camera.target),
                                                    up=list(camera.up)),
