@@ -82,7 +82,7 @@ def test_a_receiver_whose_beam_misses_the_target_gets_nothing_and_a_warning():
     assert "behind" in raw.attrs["reception_warnings"]
     assert np.abs(raw["raw"].values[0]).max() > 0
     assert np.abs(raw["raw"].values[1]).max() == 0.0  # the target is behind that element
-    # sidelobes only: looking 40 deg steeper than the target, one-way -26 dB or less
+    # sidelobes only: an element looking 40 deg steeper than the target (field ratio < -20 dB)
     radar = mitsar.Radar(receivers=[(0, 0, 0), {"position": (0, 0, 0.05),
                                                  "off_nadir_deg": 15.0}])
     with pytest.warns(MitsarWarning, match=r"outside its main lobe.*sidelobes only"):
