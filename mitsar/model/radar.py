@@ -17,7 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from mitsar.checks import KnownFields, finite, is_real, positive
 from mitsar.errors import ParameterError
-from mitsar.model.elements import Element, ElementBeam, element_beam
+from mitsar.model.elements import MAX_OFFSET, Element, ElementBeam, element_beam
 
 if TYPE_CHECKING:
     from mitsar.model.geometry.attitude import Look
@@ -35,8 +35,9 @@ REFERENCE_TEMPERATURE = 290.0
 MAX_CHANNELS = 64
 """Most channels of one radar (receivers, times the transmitters under TDM-MIMO)."""
 
-MAX_PHASE_CENTRE_OFFSET = 10.0
-"""Largest body-frame offset of a phase centre [m] (an antenna a drone can carry)."""
+MAX_PHASE_CENTRE_OFFSET = MAX_OFFSET
+"""Largest body-frame offset of a phase centre [m] (an antenna a drone can carry;
+:data:`mitsar.model.elements.MAX_OFFSET`)."""
 
 MAX_SAMPLES_PER_SWEEP = 10**6
 """Largest number of fast-time samples per sweep (16 MB of complex samples)."""
