@@ -203,3 +203,12 @@ def test_channel_amplitude_factor_runs_on_drjit_arrays_as_on_numpy():
                                    radar.antenna_gain, DRJIT_OPS)
     assert np.abs(expected).max() > 0.5
     np.testing.assert_allclose(np.asarray(got), expected, rtol=0, atol=1e-6)
+
+
+def test_raw_products_carry_the_elements_through_netcdf(tmp_path):
+    from mitsar.products.raw import radar_of
+    radar = mitsar.Radar(receivers=[(0, 0, 0), {"position": (0, 0, 0.05),
+                                                 "off_nadir_deg": 50.0}])
+    raw = _simulate(radar, normalized=True)
+    mitsar.save(raw, tmp_path / "raw.nc")
+    assert radar_of(mitsar.load(tmp_path / "raw.nc")) == radar
