@@ -6,10 +6,15 @@
     mitsar range raw.nc -o profile.nc [--window W]
     mitsar focus raw.nc -o image.nc [-a bpa] [--window W] [--azimuth-resolution M]
                  [--grid GRID.toml]
+    mitsar export image.nc -f sicd --raw raw.nc -o image.nitf   (or raw.nc -f cphd -o raw.cphd)
     mitsar metrics image.nc [--target X Y Z] [--islr-extent paper] [--json] [-o metrics.json]
     mitsar plot FILE -o FIG.png
+    mitsar run EXPERIMENT.toml -o DIR        (everything, with report.html; mitsar report DIR)
+    mitsar preview EXPERIMENT.toml -o PREVIEW.png
     mitsar demo [-o DIR] [--overwrite]
+    mitsar montecarlo EXPERIMENT.toml -o DIR [-n N]
     mitsar sweep EXPERIMENT.toml --vary KEY=A:B:STEP [--vary ...] [-n N] -o DIR
+    mitsar interferogram | rays | ambiguity ...
 
 Errors in the input (bad files, invalid parameters) print one message on stderr and exit with
 status 2; ``--debug`` shows the traceback instead. See ``docs/cli.md``.
