@@ -29,6 +29,7 @@ from mitsar.experiment import campaign, montecarlo, runs
 from mitsar.experiment.campaign import (
     AUTO,
     INLINE,
+    OUTPUTS_FILE,
     SCHEDULER_ENV,
     ClusterStartError,
     PointFolder,
@@ -40,7 +41,7 @@ from mitsar.experiment.campaign import (
     run_tasks,
 )
 from mitsar.experiment.loading import load_experiment
-from mitsar.experiment.sweep import OUTPUTS_FILE, run_sweep
+from mitsar.experiment.sweep import run_sweep
 
 ROOT = Path(__file__).resolve().parents[1]
 TINY = ROOT / "examples" / "campaign_tiny.toml"

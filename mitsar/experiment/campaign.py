@@ -52,8 +52,8 @@ from mitsar.io import to_jsonable, write_json
 
 __all__ = ["AUTO", "INLINE", "LOCAL", "SCHEDULER_ENV", "ClusterStartError", "PointFolder",
            "RecordStore", "SchedulerChoice", "Task", "announce", "choose_scheduler", "dask_client",
-           "fingerprint", "local_worker_count", "missing_main_guard", "resolve_scheduler",
-           "run_tasks", "task_seed"]
+           "fingerprint", "local_worker_count", "missing_main_guard", "outputs_match",
+           "record_outputs", "resolve_scheduler", "run_tasks", "task_seed"]
 
 SCHEDULER_ENV = "MITSAR_DASK_SCHEDULER"
 """Environment variable naming the default scheduler (an address, ``local[:N]`` or ``inline``)."""
@@ -128,6 +128,28 @@ def fingerprint(data: Any) -> str:
     """A short stable hash (16 hex digits) of JSON-able data, keys sorted."""
     text = json.dumps(to_jsonable(data), sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+OUTPUTS_FILE = "outputs.json"
+"""Hash of what a campaign's tables and figures were made from, written after them."""
+
+
+def outputs_match(folder: Path, outputs: str, files: Sequence[str]) -> bool:
+    """Whether ``folder``'s ``files`` exist and were made from ``outputs`` (the
+    :func:`fingerprint` recorded in :data:`OUTPUTS_FILE` by :func:`record_outputs`): a rerun
+    that ran nothing then rewrites nothing."""
+    try:
+        stored = json.loads((folder / OUTPUTS_FILE).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return False
+    return (isinstance(stored, dict) and stored.get("fingerprint") == outputs
+            and all((folder / name).is_file() for name in files))
+
+
+def record_outputs(folder: Path, outputs: str, files: Sequence[str]) -> None:
+    """Write :data:`OUTPUTS_FILE` (atomically), after the ``files`` made from ``outputs``."""
+    write_json({"fingerprint": outputs, "files": list(files)}, folder / OUTPUTS_FILE,
+               overwrite=True)
 
 
 def task_seed(campaign_seed: int, *index: int) -> int:

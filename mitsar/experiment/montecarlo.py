@@ -46,7 +46,14 @@ from tqdm.auto import tqdm
 from mitsar.checks import integer
 from mitsar.errors import MitsarError, ParameterError
 from mitsar.experiment import runs
-from mitsar.experiment.campaign import Task, announce, fingerprint, run_tasks
+from mitsar.experiment.campaign import (
+    Task,
+    announce,
+    fingerprint,
+    outputs_match,
+    record_outputs,
+    run_tasks,
+)
 from mitsar.experiment.coverage import check_target_in_grid
 from mitsar.experiment.loading import load_experiment
 from mitsar.experiment.options import Experiment
@@ -308,7 +315,7 @@ def run(experiment: Any, realisations: int = 10,
     config = {"experiment": experiment.config, "algorithms": algorithms,
               "first_seed": first_seed, "target": list(target), "islr_extent": islr_extent,
               "mitsar_version": __version__}
-    fingerprint = _fingerprint({k: v for k, v in config.items() if k != "mitsar_version"})
+    config_key = _fingerprint({k: v for k, v in config.items() if k != "mitsar_version"})
 
     records: list[dict] = []
     errors: dict[str, str] = {}
@@ -323,19 +330,21 @@ def run(experiment: Any, realisations: int = 10,
             except (OSError, json.JSONDecodeError) as error:
                 raise MitsarError(f"{record_path}: unreadable Monte Carlo record ({error}); "
                                   "remove it or pass resume=False") from error
-            if stored.get("fingerprint") != fingerprint:
+            if stored.get("fingerprint") != config_key:
                 raise MitsarError(f"{record_path}: recorded with another configuration "
                                   "(experiment, algorithms, seeds, target or ISLR extent); "
                                   "use another out_dir or resume=False to start afresh")
             records = list(stored.get("records", []))
             errors = dict(stored.get("errors", {}))
-    store = _Record(record_path, fingerprint, config, records, errors)
+    store = _Record(record_path, config_key, config, records, errors)
     seeds = [first_seed + i for i in range(realisations)]
     tasks = [Task(_key(seed), (experiment, seed, algorithms, target, islr_extent))
              for seed in seeds]
+    ran: list[str] = []
     run_tasks(measure_realisation, tasks, store, scheduler=scheduler, workers=workers,
               client=client, progress=progress, desc="montecarlo", what="realisations",
-              task_seconds=estimate_run_seconds(experiment, algorithms))
+              task_seconds=estimate_run_seconds(experiment, algorithms),
+              on_record=lambda task, _: ran.append(task.key))
     records = [r for r in store.records if r["seed"] in set(seeds)]
     for seed in seeds:
         if str(seed) in store.errors and seed not in {r["seed"] for r in records}:
@@ -346,20 +355,28 @@ def run(experiment: Any, realisations: int = 10,
     failures = {f"{seed} {algorithm}": reason for seed in seeds
                 for algorithm, reason in by_seed[seed].get("failures", {}).items()}
     summary.attrs["failures"] = json.dumps(failures)
-    summary.attrs.update(product="montecarlo", fingerprint=fingerprint,
+    summary.attrs.update(product="montecarlo", fingerprint=config_key,
                          islr_extent=str(islr_extent), first_seed=first_seed,
                          mitsar_version=__version__,
                          experiment=json.dumps(experiment.config))
     if experiment.background is not None:
         summary.attrs["background_cell_rcs_db"] = float(experiment.background.cell_rcs_db)
     if out_dir is not None:
+        folder, files = Path(out_dir), [SUMMARY_FILE, TABLE_FILE]
+        # what the files are made from; a rerun that ran nothing rewrites nothing (issue 27)
+        outputs = fingerprint([summary.attrs, [by_seed[s] for s in seeds]])
+        if not ran and outputs_match(folder, outputs, files):
+            announce(progress, f"montecarlo: {folder / SUMMARY_FILE} and {TABLE_FILE} are up "
+                               "to date, not rewritten")
+            return summary
         announce(progress, f"montecarlo: table of {len(seeds)} realisations -> "
-                           f"{Path(out_dir) / SUMMARY_FILE}, {TABLE_FILE}")
-        save(summary, Path(out_dir) / SUMMARY_FILE, overwrite=True)
+                           f"{folder / SUMMARY_FILE}, {TABLE_FILE}")
+        save(summary, folder / SUMMARY_FILE, overwrite=True)
         table = format_table(summary)
-        tmp = Path(out_dir) / f".{TABLE_FILE}.{os.getpid()}.tmp"
+        tmp = folder / f".{TABLE_FILE}.{os.getpid()}.tmp"
         tmp.write_text(table + "\n", encoding="utf-8")
-        os.replace(tmp, Path(out_dir) / TABLE_FILE)
+        os.replace(tmp, folder / TABLE_FILE)
+        record_outputs(folder, outputs, files)
     return summary
 
 

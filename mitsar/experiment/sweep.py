@@ -49,6 +49,8 @@ from mitsar.experiment.campaign import (
     Task,
     announce,
     fingerprint,
+    outputs_match,
+    record_outputs,
     run_tasks,
     task_seed,
 )
@@ -71,8 +73,6 @@ __all__ = ["PointMeasure", "Variation", "measure_table", "parse_variation", "run
 TABLE_FILE = "sweep.nc"
 CSV_FILE = "sweep.csv"
 FIGURES_FOLDER = "figures"
-OUTPUTS_FILE = "outputs.json"
-"""Hash of what the table, CSVs and figures were made from, written after them."""
 QUANTITIES = tuple(f"{d}_{m}" for d in DIRECTIONS for m in METRICS) + ("peak_offset_m",
                                                                          "peak_db")
 """Measured quantities, one table variable each (dims: varied keys, realisation, algorithm)."""
@@ -343,7 +343,7 @@ def run_sweep(experiment_path: str | os.PathLike, variations: Sequence[Variation
         f"sweep_{m.name}.csv" for m in measures]
     drawn = ([f"{FIGURES_FOLDER}/{q}.png" for q in QUANTITIES[:-1]] if images else []) + [
         f"{FIGURES_FOLDER}/{q}.png" for m in measures for q in m.quantities]
-    up_to_date = not ran and _outputs_match(out, outputs, expected + (drawn if figures else []))
+    up_to_date = not ran and outputs_match(out, outputs, expected + (drawn if figures else []))
     parts = [sweep_table(variations, realisations, algorithms,
                          [records.get(t.key) for t in tasks], [t.args[3] for t in tasks])
              ] if images else []
@@ -384,20 +384,8 @@ def run_sweep(experiment_path: str | os.PathLike, variations: Sequence[Variation
                 plot_sweep(table, out / FIGURES_FOLDER, bar=bar)
             for m in measures:
                 plot_measure(table, m, out / FIGURES_FOLDER, bar=bar)
-    atomic_writer(out / OUTPUTS_FILE, True, lambda tmp: tmp.write_text(
-        json.dumps({"fingerprint": outputs, "files": expected + (drawn if figures else [])})
-        + "\n", encoding="utf-8"))
+    record_outputs(out, outputs, expected + (drawn if figures else []))
     return table
-
-
-def _outputs_match(folder: Path, outputs: str, files: Sequence[str]) -> bool:
-    """Whether ``folder``'s outputs were made from ``outputs`` (:data:`OUTPUTS_FILE`) and exist."""
-    try:
-        stored = json.loads((folder / OUTPUTS_FILE).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return False
-    return (isinstance(stored, dict) and stored.get("fingerprint") == outputs
-            and all((folder / name).is_file() for name in files))
 
 
 def measure_table(variations: Sequence[Variation], measure: PointMeasure,
