@@ -26,6 +26,7 @@ with plain arithmetic so that they accept Dr.Jit arrays too).
 from __future__ import annotations
 
 import math
+import os
 from typing import Any
 
 import numpy as np
@@ -270,6 +271,8 @@ def histogram_to_raw(histogram: ArrayLike, bin_ranges: ArrayLike, radar: Radar) 
     -------
     ndarray, shape (..., samples_per_sweep), complex128
     """
+    import scipy.fft  # here: the module's formulas also run inside Dr.Jit kernels
+
     histogram = np.asarray(histogram)
     first, count, bins_per_cell = grid_of(bin_ranges, radar)
     if histogram.shape[-1] != count:
@@ -288,7 +291,16 @@ def histogram_to_raw(histogram: ArrayLike, bin_ranges: ArrayLike, radar: Radar) 
     else:  # a grid wider than the band: several bins alias onto one DFT slot
         for slot in np.unique(slots):
             spectrum[..., slot] = weighted[..., slots == slot].sum(axis=-1)
-    return size * np.fft.ifft(spectrum, axis=-1)[..., :samples]
+    # SciPy's pocketfft without the 1/M scaling (norm="forward"): the same sum as
+    # M ifft(.) without a pass over the spectrum, and faster than numpy.fft on these sizes;
+    # one transform per sweep (and channel), so the thread count does not change the bits
+    return scipy.fft.ifft(spectrum, axis=-1, norm="forward", overwrite_x=True,
+                          workers=_fft_workers(spectrum.size // size))[..., :samples]
+
+
+def _fft_workers(transforms: int) -> int:
+    """Threads for ``transforms`` independent transforms: all cores for many, one for few."""
+    return max(1, min(os.cpu_count() or 1, transforms // 64))
 
 
 def _check_bins_per_cell(bins_per_cell: Any) -> int:

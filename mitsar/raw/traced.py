@@ -245,30 +245,31 @@ def _trace_raw(run: TraceRun) -> tuple[TraceRun, NDArray[np.complex128], NDArray
     kept = np.arange(0)
     for chosen, hist in run.chunks():
         per_receiver = hist[:, None] if run.channels is None else hist
-        for k in range(receivers):
-            samples[k, row:row + len(chosen)], kept = _synthesise(
-                per_receiver[:, k], np.arange(hist.shape[-2]), run.config.orders, run.ranges,
-                run.radar)
+        # every receiver of the chunk in one inverse FFT call: (sweeps, receivers, samples)
+        chunk, kept = _synthesise(per_receiver, np.arange(hist.shape[-2]), run.config.orders,
+                                  run.ranges, run.radar)
+        samples[:, row:row + len(chosen)] = np.moveaxis(chunk, 1, 0)
         row += len(chosen)
     return run, samples if run.channels is not None else samples[0], kept
 
 
 def _synthesise(histogram: NDArray, available: NDArray, orders: tuple[int, ...] | None,
                 ranges: NDArray, radar: Radar) -> tuple[NDArray[np.complex128], NDArray]:
-    """Raw sweeps of histograms (sweeps, orders, bins): the kept path orders summed, then one
-    inverse FFT per sweep (:func:`mitsar.model.histogram.histogram_to_raw`, docs/design.md
-    §5.5). The one histogram -> raw path of :func:`simulate_scene` and
+    """Raw sweeps of histograms (sweeps, [receivers,] orders, bins): the kept path orders
+    summed, then one inverse FFT per sweep and receiver
+    (:func:`mitsar.model.histogram.histogram_to_raw`, docs/design.md §5.5). The one
+    histogram -> raw path of :func:`simulate_scene` and
     :func:`histogram_to_raw_product`.
 
     Returns
     -------
-    samples : ndarray, shape (sweeps, samples_per_sweep)
+    samples : ndarray, shape (sweeps, [receivers,] samples_per_sweep)
     kept : ndarray of int
         The orders summed (of ``available``, the orders of the histogram's order axis).
     """
     mask = (np.ones(len(available), dtype=bool) if orders is None
             else np.isin(available, np.asarray(orders)))
-    samples = hg.histogram_to_raw(histogram[:, mask, :].sum(axis=1), ranges, radar)
+    samples = hg.histogram_to_raw(histogram[..., mask, :].sum(axis=-2), ranges, radar)
     return samples, available[mask]
 
 
