@@ -125,3 +125,32 @@ def test_spectral_channels_refuse_what_they_cannot_focus(raw):
                                         normalized=True)
     with pytest.raises(ParameterError, match="TDM-MIMO"):
         mitsar.focus(raw, "wda", GRID)
+
+
+def test_squinted_spectral_channels_agree_with_bpa():
+    """10 deg squint at 0.1 m azimuth resolution (a 1.5 m track holds the squinted aperture):
+    RDA's flat phase within 1 mrad of BPA's (measured 0.63 mrad) and the channels' peaks
+    within 0.1 pixel of each other (measured 0.03)."""
+    look = mitsar.Look(55.7, 10.0)
+    track = mitsar.Trajectory.linear(START, [SPEED, 0.0, 0.0], 3.0)
+    radar = mitsar.Radar(receivers=[(0, 0, 0), tuple(BASELINE)])
+    probe = mitsar.simulate_point_targets(radar, track, look, [mitsar.PointTarget(PIXEL)],
+                                          normalized=True)
+    from mitsar.focus.grid import track_frame
+    origin, along, sight = track_frame(probe)
+    a0 = 0.75 - R0 * np.tan(np.radians(10.0))
+    pixel = origin + a0 * along + R0 * sight
+    raw = mitsar.simulate_point_targets(
+        radar, track, look, [mitsar.PointTarget(pixel + 0.1 * np.cross(along, sight))],
+        normalized=True)
+    grid = SlantGrid(along_track=a0 + STEP * np.arange(-20, 21),
+                     slant_range=R0 + STEP * np.arange(-20, 21))
+    phases, peaks = {}, {}
+    for name in ("bpa", "rda"):
+        values = mitsar.focus(raw, name, grid, azimuth_resolution=0.1)["image"].values
+        phases[name] = np.angle(values[0, 20, 20] * np.conj(values[1, 20, 20]))
+        peaks[name] = [_peak(values[k]) for k in range(2)]
+    assert 0.5 < abs(phases["bpa"]) < 2.5
+    assert abs(phases["rda"] - phases["bpa"]) < 1e-3
+    assert np.abs(peaks["rda"][1] - peaks["rda"][0]).max() < 0.1
+    assert np.abs(peaks["rda"][0] - peaks["bpa"][0]).max() < 0.1
