@@ -254,3 +254,24 @@ def test_an_autofocused_run_reports_its_autofocus(tmp_path):
     row = page.table_after("Autofocus")[1]
     assert [cell for cell, _ in row[:2]] == ["bpa", "pga"]
     assert text.index("<h2>Autofocus</h2>") < text.index('alt="autofocus_bpa.png"')
+
+
+def test_ambiguity_table_and_figures_read_in_words():
+    """The ambiguity run's table had raw keys (``fraction_outside_beam``) at five different
+    precisions and a title "(0.15, 0.1)"; its figures were titled by their file stems."""
+    from mitsar.report.run import (
+        _ambiguity_figure,
+        _ambiguity_heading,
+        _ambiguity_value,
+        _resolution_text,
+    )
+
+    assert _resolution_text([0.15, 0.1]) == "0.15 m (range) x 0.1 m (azimuth)"
+    assert _resolution_text(0.1) == "0.1 m" and _resolution_text([0.1, 0.1]) == "0.1 m"
+    assert _ambiguity_heading("fraction_outside_beam") == "outside the beam [%]"
+    assert _ambiguity_heading("fraction_only_ambiguous") == "only ambiguous [%]"
+    assert _ambiguity_heading("surface_area") == "surface area [m²]"
+    assert _ambiguity_value("fraction_resolved", 0.1234) == pytest.approx(12.34)
+    assert _ambiguity_value("surface_area", 307.0) == 307.0
+    assert _ambiguity_figure("ambiguity_paper_side_3d")[0] == "Ambiguity, paper_side: 3-D view"
+    assert _ambiguity_figure("comparison")[0] == "Trajectories compared"

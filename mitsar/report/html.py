@@ -61,6 +61,7 @@ figure { margin: 1em 0 2em; } figure img { max-width: 100%; border: 1px solid #d
 figcaption { color: #555; font-size: .9em; }
 pre { background: #f7f7f7; padding: 1em; overflow-x: auto; font-size: .85em; }
 .warning { background: #fff4e5; border-left: 4px solid #f0a020; padding: .4em .8em; }
+div.table { overflow-x: auto; }
 td.text { text-align: left; } td.message { text-align: left; white-space: normal;
   max-width: 60em; color: #7a4a00; background: #fffaf2; }
 p.note { color: #555; font-size: .9em; max-width: 60em; }
@@ -181,7 +182,7 @@ def provenance(seeds: dict[str, Any] | None = None) -> dict[str, Any]:
 
 _UNIT_FORMATS = {"cells": ".3f", "dB": ".2f", "m": ".3f", "mm": ".1f", "cm": ".2f",
                  "deg": ".2f", "s": ".2f", "rad": ".3f", "nats": ".4f", "%": ".1f",
-                 "cells²": ".4f", "dB²": ".3f", "m/s": ".3f"}
+                 "cells²": ".4f", "dB²": ".3f", "m/s": ".3f", "m²": ".1f"}
 """Format of a table column by the unit in its heading (``"range IRW [cells]"``): one
 precision per quantity, about a thousandth of its natural scale (IRW in cells to 0.001, levels
 in dB to 0.01, lengths in m to a millimetre)."""
@@ -256,7 +257,7 @@ def _table(header: Sequence[str], rows: Sequence[Sequence[Any]],
                 kind = "" if numeric else ' class="text"'
                 cells.append(f"<td{kind}>{html.escape(text)}</td>")
         body.append("<tr>" + "".join(cells) + "</tr>")
-    return f"<table><tr>{head}</tr>{''.join(body)}</table>"
+    return f'<div class="table"><table><tr>{head}</tr>{"".join(body)}</table></div>'
 
 
 METRICS_HEADER = ["algorithm", "range IRW [cells]", "range PSLR [dB]", "range ISLR [dB]",

@@ -174,6 +174,48 @@ def run_experiment(path: str | Path, out_dir: str | Path, *, overrides: Sequence
     return out / report.name
 
 
+def _resolution_text(required: Any) -> str:
+    """A required resolution [m]: one number, or range and azimuth."""
+    values = [float(v) for v in np.ravel(required)]
+    if len(values) == 1 or values[0] == values[1]:
+        return f"{values[0]:g} m"
+    return f"{values[0]:g} m (range) x {values[1]:g} m (azimuth)"
+
+
+def _ambiguity_heading(key: str) -> str:
+    """A column of the ambiguity table: ``fraction_outside_beam`` -> "outside the beam [%]",
+    ``surface_area`` -> "surface area [m²]"."""
+    if key.startswith("fraction_"):
+        words = key.removeprefix("fraction_").replace("_", " ")
+        return ("outside the beam" if words == "outside beam" else words) + " [%]"
+    if key.endswith("_area"):
+        return key.replace("_", " ") + " [m²]"
+    return key.replace("_", " ")
+
+
+def _ambiguity_value(key: str, value: Any) -> Any:
+    """A fraction as a percentage; other values as they are."""
+    if key.startswith("fraction_") and isinstance(value, int | float):
+        return 100.0 * float(value)
+    return value
+
+
+def _ambiguity_figure(stem: str) -> tuple[str, str]:
+    """Title and caption of an ambiguity figure from its file name
+    (``ambiguity_<trajectory>_<kind>`` or ``comparison``;
+    :func:`mitsar.ambiguity.plots.plot_ambiguity`)."""
+    kinds = {"maps": ("maps", "per surface: status, best range and azimuth resolution"),
+             "3d": ("3-D view", "status of every surface point"),
+             "timeline": ("time line", "resolution reached along the track")}
+    if stem == "comparison":
+        return "Trajectories compared", "area resolved per surface and status from above"
+    for kind, (title, caption) in kinds.items():
+        if stem.startswith("ambiguity_") and stem.endswith(f"_{kind}"):
+            name = stem.removeprefix("ambiguity_").removesuffix(f"_{kind}")
+            return f"Ambiguity, {name}: {title}", f"gradient method, {caption}"
+    return stem, "gradient-method figure"
+
+
 RUN_FOLDER = "run"
 """Sub-folder of a ``mitsar run``'s work folder (:class:`mitsar.io.WorkFolder`) where the run
 is made; moved into the output folder when finished."""
@@ -188,17 +230,18 @@ def _ambiguity(run: RunFolder, path: Path, document: dict[str, Any], progress: b
     overall = {name: entry["overall"] for name, entry in summary["trajectories"].items()}
     keys = sorted({key for fractions in overall.values() for key in fractions})
     run.record["tables"].append({
-        "title": f"Ambiguity: fractions of the surfaces (required resolution "
-                 f"{summary['required_resolution']})",
-        "header": ["trajectory"] + keys,
-        "rows": [[name] + [fractions.get(key, "") for key in keys]
+        "title": "Ambiguity: parts of the surfaces observed at "
+                 f"{_resolution_text(summary['required_resolution'])}",
+        "header": ["trajectory"] + [_ambiguity_heading(key) for key in keys],
+        "rows": [[name] + [_ambiguity_value(key, fractions.get(key)) for key in keys]
                  for name, fractions in overall.items()]})
     for file in summary.get("files", []):
         name = Path(file).name
         relative = f"ambiguity/{name}"
         if name.endswith(".png"):
-            run.record["figures"].append({"file": relative, "title": Path(name).stem,
-                                          "caption": "gradient-method map (docs/ambiguity.md)"})
+            title, caption = _ambiguity_figure(Path(name).stem)
+            run.record["figures"].append({"file": relative, "title": title,
+                                          "caption": caption + " (docs/ambiguity.md)"})
         else:
             run.record["products"].append(relative)
 
