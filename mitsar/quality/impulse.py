@@ -219,8 +219,8 @@ def _neighbours(power: NDArray[np.float64], peak_power: float,
 
 
 def _db(ratio: float) -> float:
-    """10 log10 of a power ratio (-inf for 0)."""
-    return 10.0 * math.log10(ratio) if ratio > 0 else -math.inf
+    """10 log10 of a power ratio, at least -300 dB (finite, for JSON)."""
+    return 10.0 * math.log10(max(ratio, 1e-30))
 
 
 def _speckle_threshold(relative: NDArray[np.float64], u: NDArray[np.float64],
@@ -233,10 +233,9 @@ def _speckle_threshold(relative: NDArray[np.float64], u: NDArray[np.float64],
     (over the chip beyond them when that is less than a quarter of the window): local, as the
     antenna beam weights the clutter around its centre, and where the target's own response is
     only its two sidelobe ridges (a small part of the area; a few other scatterers do not move
-    a median). The brightest of N
-    independent cells exceeds ``t`` times that mean with probability
-    ``1 - (1 - exp(-t))^N`` ≈ ``N exp(-t)``; ``t = ln(N / SPECKLE_FALSE_ALARM)`` with N the
-    window's area in resolution cells.
+    a median). The brightest of N independent cells exceeds ``t`` times that mean with
+    probability ``1 - (1 - exp(-t))^N`` ≈ ``N exp(-t)``; ``t = ln(N / SPECKLE_FALSE_ALARM)``
+    with N the window's area in resolution cells.
 
     Returns
     -------
@@ -321,7 +320,9 @@ def measure_impulse_response(
         (the peak over the pixel's ``noise_power``, and its ``nesz_db``; only for images that
         carry them, docs/metrics.md §Noise); ``warnings`` (list of str:
         neighbours, band fill) and ``neighbours`` (list of ``{"position", "level_db",
-        "distance_m", "offset_cells"}``); ``islr_extent``, ``chip_cells``, ``upsample``,
+        "distance_m", "offset_cells", "background_db"}``: the focusing grid's pixel where the
+        neighbour is imaged, m; its level and the background's mean around the target relative
+        to the peak, dB; ...); ``islr_extent``, ``chip_cells``, ``upsample``,
         ``search_radius_m`` and ``cut_axes`` (values used).
 
     Raises
