@@ -28,7 +28,8 @@ from mitsar.focus.autofocus.contributions import (
 )
 from mitsar.focus.autofocus.entropy import EntropyOptions, estimate_entropy, image_entropy
 from mitsar.focus.autofocus.lines import azimuth_lines
-from mitsar.focus.autofocus.pga import PGAOptions, estimate_pga, select_scatterers
+from mitsar.focus.autofocus.pga import PGAOptions, estimate_pga
+from mitsar.focus.autofocus.selection import cell_pixels, chip_pixels, select_scatterers
 
 __all__ = ["METHODS", "make_options", "run_autofocus"]
 
@@ -107,8 +108,12 @@ def run_autofocus(raw: xr.Dataset, image: xr.Dataset,
         used = len(points)
         phase, info = estimate_entropy(terms, record)
     else:
-        chosen = select_scatterers(magnitude, record.scatterers, record.dynamic_range_db,
-                                   record.separation_cells)
+        chosen, scr_db = select_scatterers(magnitude, record.scatterers,
+                                           record.dynamic_range_db, record.separation_cells,
+                                           cell_pixels(image), record.min_scr_db,
+                                           record.clutter_cells)
+        if len(chosen) == 0:
+            return _nothing_to_focus(raw, image, method, record, start)
         if method == "pga":
             phase, info = estimate_pga(data, positions[chosen], record)
             used = info.pop("scatterers")
@@ -117,8 +122,13 @@ def run_autofocus(raw: xr.Dataset, image: xr.Dataset,
                                   line_cells=record.line_cells,
                                   max_elements=record.max_elements)
             used = lines.history.shape[1]
-            terms = (lines.kernel * lines.history[:, :, None]).reshape(len(lines.history), -1)
-            phase, info = estimate_entropy(terms, record)
+            # the image chips around the scatterers, with the focuser's own aperture: the
+            # stage whose estimate makes them sharpest is kept (estimate_entropy, check)
+            chips = positions[chip_pixels(magnitude.shape, chosen[:used], cell_pixels(image),
+                                          record.check_cells)]
+            check = contributions(data, chips) * aperture_weights(data, chips)
+            phase, info = estimate_entropy(lines, record, check)
+        info["scatterer_scr_db"] = [round(float(v), 2) for v in scr_db[:used]]
     corrected = refocus(correct_raw(raw, phase))
     before, after = image_entropy(values), image_entropy(corrected["image"].values)
     attrs = {"method": method, **info, "scatterers": int(used),
@@ -133,6 +143,24 @@ def run_autofocus(raw: xr.Dataset, image: xr.Dataset,
     if message:
         warnings.warn(message, MitsarWarning, stacklevel=3)
     return attach_phase(corrected if applied else image, raw, phase, attrs)
+
+
+def _nothing_to_focus(raw: xr.Dataset, image: xr.Dataset, method: str,
+                      record: PGAOptions | EntropyOptions, start: float) -> xr.Dataset:
+    """The uncorrected image with a warning: no scatterer stands out of the clutter."""
+    message = (f"autofocus {method!r} found no scatterer standing {record.min_scr_db:g} dB "
+               f"above the median clutter within {record.clutter_cells:g} cells (and within "
+               f"{record.dynamic_range_db:g} dB of the brightest pixel): nothing to estimate "
+               "the phase error from; the uncorrected image is returned (autofocus_applied = "
+               "0); lower 'min_scr_db' in autofocus_options, image a larger area holding a "
+               "bright isolated reflector, or use autofocus='entropy' with domain='image'")
+    warnings.warn(message, MitsarWarning, stacklevel=4)
+    entropy = image_entropy(image["image"].values)
+    attrs = {"method": method, "iterations": 0, "scatterers": 0, "entropy_before": entropy,
+             "entropy_after": entropy, "seconds": time.perf_counter() - start,
+             "options": {f.name: getattr(record, f.name) for f in fields(record)},
+             "applied": False, "converged": False, "warning": message}
+    return attach_phase(image, raw, np.zeros(raw.sizes["sweep"]), attrs)
 
 
 DEGRADED_NATS = 1e-3

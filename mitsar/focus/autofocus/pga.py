@@ -33,14 +33,13 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import ndimage
 
 from mitsar.errors import ParameterError
 from mitsar.focus.autofocus.contributions import PulseData
 from mitsar.focus.autofocus.lines import azimuth_lines
 from mitsar.focus.autofocus.phase import integrate_gradient, remove_linear_phase, wrap
 
-__all__ = ["PGAOptions", "estimate_pga", "select_scatterers"]
+__all__ = ["PGAOptions", "estimate_pga"]
 
 
 @dataclass(frozen=True)
@@ -54,8 +53,13 @@ class PGAOptions:
     dynamic_range_db : float
         Candidates must lie within this many dB of the brightest pixel (default 30 dB).
     separation_cells : float
-        Candidates are local maxima within +- this many pixels in each image direction
-        (default 3).
+        Candidates are local maxima within +- this many resolution cells along both image
+        dimensions (default 0.5; 3 pixels before 2026-11).
+    min_scr_db : float
+        Scatterer-to-clutter ratio a candidate needs: its intensity over the median intensity
+        within ``clutter_cells`` [dB] (default 15; :mod:`mitsar.focus.autofocus.selection`).
+    clutter_cells : float
+        Half size of the box the clutter median is taken over, resolution cells (default 8).
     iterations : int
         Largest number of PGA iterations (default 10).
     line_cells : float or None
@@ -70,6 +74,10 @@ class PGAOptions:
         Smallest window half width, resolution cells (default 4).
     tolerance : float
         Stop when the rms of an iteration's correction falls below this [rad] (default 0.02).
+    min_coherence : float
+        Lines whose sweep-to-sweep phase differences agree with the estimated gradient less
+        than this (coherence in [0, 1]) are left out of that iteration's estimate (default
+        0.3; clutter gives about ``1/sqrt(sweeps)``; :func:`_consensus_gradient`).
     aperture : {"beam", "processed"}
         Sweeps a scatterer's phase history is taken over: all sweeps whose beam holds it
         (default; estimates the phase wherever a scatterer is seen) or only the focuser's
@@ -84,13 +92,16 @@ class PGAOptions:
 
     scatterers: int = 32
     dynamic_range_db: float = 30.0
-    separation_cells: float = 3.0
+    separation_cells: float = 0.5
+    min_scr_db: float = 15.0
+    clutter_cells: float = 8.0
     iterations: int = 10
     line_cells: float | None = None
     oversample: int = 2
     shrink: float = 0.5
     min_window_cells: float = 4.0
     tolerance: float = 0.02
+    min_coherence: float = 0.3
     aperture: str = "beam"
     max_elements: int = 1 << 23
     fallback: bool = True
@@ -99,11 +110,14 @@ class PGAOptions:
         checks = {"scatterers": self.scatterers >= 1,
                   "dynamic_range_db": self.dynamic_range_db > 0,
                   "separation_cells": self.separation_cells >= 0,
+                  "min_scr_db": bool(np.isfinite(self.min_scr_db)),
+                  "clutter_cells": self.clutter_cells >= 1,
                   "iterations": self.iterations >= 1,
                   "line_cells": self.line_cells is None or self.line_cells >= 2,
                   "oversample": self.oversample >= 1, "shrink": 0 < self.shrink <= 1,
                   "min_window_cells": self.min_window_cells > 0,
                   "tolerance": self.tolerance >= 0,
+                  "min_coherence": 0 <= self.min_coherence <= 1,
                   "aperture": self.aperture in ("beam", "processed"),
                   "max_elements": self.max_elements >= 1}
         for name, good in checks.items():
@@ -113,10 +127,13 @@ class PGAOptions:
 
 
 _EXPECTED = {"scatterers": "an integer >= 1", "dynamic_range_db": "a level > 0 dB",
-             "separation_cells": "a number of pixels >= 0", "iterations": "an integer >= 1",
+             "separation_cells": "a number of cells >= 0",
+             "min_scr_db": "a finite ratio in dB", "clutter_cells": "a number of cells >= 1",
+             "iterations": "an integer >= 1",
              "line_cells": "None or a number of cells >= 2", "oversample": "an integer >= 1",
              "shrink": "a factor in (0, 1]", "min_window_cells": "a number of cells > 0",
-             "tolerance": "a phase >= 0 rad", "aperture": "'beam' or 'processed'",
+             "tolerance": "a phase >= 0 rad",
+             "min_coherence": "a coherence in [0, 1]", "aperture": "'beam' or 'processed'",
              "max_elements": "an integer >= 1"}
 
 
@@ -126,19 +143,28 @@ def _entropy(power: NDArray) -> float:
     return float(-np.sum(share * np.log(share + 1e-300)))
 
 
-def select_scatterers(magnitude: NDArray, count: int, dynamic_range_db: float,
-                      separation: float) -> NDArray:
-    """Flat indices of the brightest local maxima of a 2-D image magnitude, brightest first.
+def _consensus_gradient(pairs: NDArray, min_coherence: float) -> tuple[NDArray, NDArray]:
+    """Phase gradient from the lines that agree with it, and which lines those are.
 
-    A pixel qualifies when it is the largest within ``+- separation`` pixels along both image
-    dimensions and lies within ``dynamic_range_db`` of the image's maximum; at most ``count``.
+    ``pairs[k, p] = g_(k+1)(p) conj(g_k(p))``. The maximum-likelihood gradient is
+    ``arg sum_p pairs[k, p]`` (Jakowatz & Wahl 1993). A line's coherence with it,
+    ``|sum_k pairs[k, p] exp(-j grad_k)| / sum_k |pairs[k, p]|``, is near 1 for a point
+    scatterer that dominates its window and about ``1/sqrt(S)`` for clutter, whose
+    sweep-to-sweep phase differences are random; lines below ``min_coherence`` are dropped and
+    the gradient taken again from the others (all lines when none would remain).
     """
-    size = 2 * int(np.ceil(separation)) + 1
-    peaks = (magnitude == ndimage.maximum_filter(magnitude, size=size, mode="nearest"))
-    peaks &= magnitude >= magnitude.max() * 10 ** (-dynamic_range_db / 20)
-    candidates = np.flatnonzero(peaks)
-    order = np.argsort(magnitude.ravel()[candidates])[::-1]
-    return candidates[order[:count]]
+    total = pairs.sum(axis=1)
+    gradient = np.where(np.abs(total) > 0, np.angle(total), 0.0)
+    magnitude = np.abs(pairs).sum(axis=0)
+    agreement = np.abs((pairs * np.exp(-1j * gradient)[:, None]).sum(axis=0))
+    coherence = agreement / np.where(magnitude > 0, magnitude, 1.0)
+    kept = coherence >= min_coherence
+    if kept.any() and not kept.all():
+        total = pairs[:, kept].sum(axis=1)
+        gradient = np.where(np.abs(total) > 0, np.angle(total), 0.0)
+    else:
+        kept = np.ones(pairs.shape[1], dtype=bool)
+    return gradient, kept
 
 
 def estimate_pga(data: PulseData, points: NDArray, options: PGAOptions
@@ -163,7 +189,8 @@ def estimate_pga(data: PulseData, points: NDArray, options: PGAOptions
         update], ``window_cells`` (half width of the last window), ``kept_iteration`` (the
         iterate returned: the one of sharpest line images, 0 = no correction),
         ``line_entropy_initial`` / ``line_entropy_final`` (of the line images before and with
-        the returned estimate, nats), ``covered_sweeps``, ``scatterers`` (lines used).
+        the returned estimate, nats), ``covered_sweeps``, ``scatterers`` (lines used),
+        ``lines_kept`` (per iteration, the lines coherent with the gradient).
     """
     lines = azimuth_lines(data, points, aperture=options.aperture,
                           oversample=options.oversample, line_cells=options.line_cells,
@@ -196,8 +223,9 @@ def estimate_pga(data: PulseData, points: NDArray, options: PGAOptions
         outside = np.where(distance <= half_window, 0.0, image)
         projected = corrected - np.einsum("kpq,pq->kp", shift.conj(), outside) / length
         projected *= shift[:, rows, centre] * covered  # phase about the centre (the shift)
-        product = np.sum(projected[1:] * projected[:-1].conj(), axis=1)
-        gradient = np.where(np.abs(product) > 0, np.angle(product), 0.0)
+        pairs = projected[1:] * projected[:-1].conj()  # (S - 1, P)
+        gradient, kept = _consensus_gradient(pairs, options.min_coherence)
+        info.setdefault("lines_kept", []).append(int(kept.sum()))
         update = remove_linear_phase(integrate_gradient(gradient), coverage)
         total = remove_linear_phase(total + update, coverage)
         rms = float(np.sqrt(np.average(wrap(update) ** 2, weights=coverage)))
