@@ -86,7 +86,7 @@ def plot_footprint(scene: Any, raw: xr.Dataset, title: str = "", rays: int = 21)
     top.set(xlabel="x [m]", ylabel="y [m]", title="top view", xlim=(low[0], high[0]),
             ylim=(low[1], high[1]))
     top.set_aspect("equal")
-    top.legend(fontsize=8)
+    top.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncols=4)  # off the beam
     figure.suptitle(title or "beam footprint on the scene (paper Figs. 12, 14)")
     return figure
 
