@@ -19,6 +19,7 @@ from mitsar.errors import ParameterError
 
 __all__ = ["MAGNITUDE_BOUNDS", "MAX_ANGLE_DEG", "MAX_DB", "MAX_DURATION", "MAX_FREQUENCY",
            "MAX_LENGTH", "MAX_LEVEL_DB", "MAX_RCS", "MAX_SEED", "MAX_SPEED", "KnownFields",
+           "check_units",
            "bounded", "boolean", "finite", "integer", "is_real", "level_db", "positive", "rcs",
            "seed", "vector"]
 
@@ -204,3 +205,31 @@ class KnownFields(type):
             raise ParameterError(cls.__name__, unknown[0], f"one of {known}", kwargs[unknown[0]])
         return super().__call__(*args, **kwargs)
 
+
+
+def check_units(where: str, record: Any, units: dict[str, str], prefix: str = "") -> None:
+    """Refuse the finite fields of a parameter record (a dataclass) beyond the bound of their
+    unit (:data:`MAGNITUDE_BOUNDS`), as the experiment files refuse them at load: the Python
+    API as strict as the files (issue 27). Fields that are None, or not finite (whose meaning
+    the class's own checks decide, e.g. ``-inf`` dB: nothing), pass.
+
+    Parameters
+    ----------
+    where : str
+        The class named in the error.
+    record : object
+        The record, its fields already converted by the class's own checks.
+    units : dict
+        Field name -> unit (a key of :data:`MAGNITUDE_BOUNDS`).
+    prefix : str
+        Prefix of the parameter's name in the error (``"vibration."``).
+    """
+    for name, unit in units.items():
+        value = getattr(record, name)
+        if value is None:
+            continue
+        array = np.asarray(value, dtype=float)
+        finite_values = (array[np.isfinite(array)] if array.ndim
+                         else float(array) if np.isfinite(array) else [])
+        bounded(where, prefix + name, finite_values, unit,
+                f"{'a value' if array.ndim == 0 else f'{array.size} values'} [{unit}]")

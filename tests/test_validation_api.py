@@ -63,3 +63,35 @@ def test_valid_arguments_pass_through() -> None:
     assert np.allclose(mitsar.boresight(LOOK, np.float32(0.0)), mitsar.boresight(LOOK, 0.0))
     with pytest.raises(mitsar.MitsarError, match="no_such_file"):
         mitsar.load(__import__("pathlib").Path("no_such_file.nc"))
+
+
+BOUNDED = {
+    "PointTarget position": (lambda: mitsar.PointTarget([1e300, 0, 0]), "position"),
+    "PointTarget velocity": (lambda: mitsar.PointTarget([1, 0, 0], velocity=[0, 2e3, 0]),
+                             "velocity"),
+    "Background center": (lambda: mitsar.Background([0, 2e4, 0], (1, 1)), "center"),
+    "Background size": (lambda: mitsar.Background([0, 0, 0], (1e300, 1)), "size"),
+    "Radar noise figure": (lambda: mitsar.Radar(noise_figure_db=1e300), "noise_figure_db"),
+    "NavigationErrors noise": (lambda: mitsar.NavigationErrors(position_noise=(1e300, 0, 0)),
+                               "position_noise"),
+    "NavigationErrors correlation time": (lambda: mitsar.NavigationErrors(
+        position_correlation_time=1e7), "position_correlation_time"),
+    "Vibration frequency": (lambda: mitsar.Vibration((1e-3, 0, 0), 1e300),
+                            "vibration.frequency"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BOUNDED))
+def test_api_records_bounded_as_the_experiment_files(case: str) -> None:
+    """The bounds by unit of mitsar.checks.MAGNITUDE_BOUNDS hold for the classes as for
+    their TOML tables (10 km, 1 km/s, 1e6 s, 1000 dB, 10 THz)."""
+    call, name = BOUNDED[case]
+    with pytest.raises(ParameterError) as info:
+        call()
+    assert info.value.name == name, str(info.value)
+
+
+def test_bounds_leave_ordinary_and_infinite_meanings_alone() -> None:
+    mitsar.PointTarget([1e4, -1e4, 0.0], velocity=[1e3, 0, 0])  # on the bounds
+    mitsar.Radar(noise_figure_db=8.0)
+    mitsar.NavigationErrors(position_noise=(1e-3, 0, 0), position_correlation_time=1e6)
