@@ -16,7 +16,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mitsar.checks import integer, level_db, rcs, vector
+from mitsar.checks import check_units, integer, level_db, rcs, vector
 from mitsar.errors import ParameterError
 
 
@@ -47,6 +47,7 @@ class PointTarget:
         object.__setattr__(self, "position", _vector3("PointTarget", "position", self.position))
         object.__setattr__(self, "velocity", _vector3("PointTarget", "velocity", self.velocity))
         object.__setattr__(self, "rcs", rcs("PointTarget", "rcs", self.rcs))
+        check_units("PointTarget", self, {"position": "m", "velocity": "m/s"})  # issue 27
 
 
 @dataclass(frozen=True)
@@ -87,6 +88,7 @@ class Background:
             raise ParameterError("Background", "size", "2 extents > 0 m", self.size)
         object.__setattr__(self, "size", (float(size[0]), float(size[1])))
         level_db("Background", "cell_rcs_db", self.cell_rcs_db)
+        check_units("Background", self, {"center": "m", "size": "m", "cell_rcs_db": "dB"})
         if self.mode not in ("pulse", "frozen"):
             raise ParameterError("Background", "mode", "'pulse' or 'frozen'", self.mode)
         integer("Background", "scatterers_per_cell", self.scatterers_per_cell, 1,
