@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mitsar.checks import KnownFields, finite, is_real, positive
+from mitsar.checks import KnownFields, check_units, finite, is_real, positive
 from mitsar.errors import ParameterError
 from mitsar.model.elements import MAX_OFFSET, Element, ElementBeam, element_beam
 
@@ -140,6 +140,7 @@ class Radar(metaclass=KnownFields):
                 raise ParameterError("Radar", name, "None or a beamwidth in (0, 180) deg", value)
         if self.noise_figure_db is not None:
             finite("Radar", "noise_figure_db", self.noise_figure_db, "None or a finite dB value")
+            check_units("Radar", self, {"noise_figure_db": "dB"})  # as [radar] (issue 27)
         for name, limit, unit, why in _UPPER_BOUNDS:
             if getattr(self, name) > limit:
                 raise ParameterError("Radar", name, f"<= {limit:g} {unit} ({why})",
