@@ -41,6 +41,12 @@ __all__ = ["NavigationErrors", "Vibration", "describe_navigation", "navigation_t
 
 _WHERE = "NavigationErrors"
 
+_UNITS = {"position_offset": "m", "position_random_walk": "m/sqrt(s)", "position_noise": "m",
+          "position_correlation_time": "s", "attitude_offset_deg": "deg",
+          "attitude_random_walk_deg": "deg/sqrt(s)", "attitude_noise_deg": "deg",
+          "attitude_correlation_time": "s", "lever_arm": "m", "sample_rate": "Hz"}
+"""Units of the fields bounded by :func:`mitsar.checks.check_units`."""
+
 
 def _vector(name: str, value: Any, expected: str) -> tuple[float, float, float]:
     return tuple(float(v) for v in checks.vector(_WHERE, name, value, 3, expected))
@@ -78,6 +84,8 @@ class Vibration(metaclass=checks.KnownFields):
             _WHERE, "vibration.frequency", self.frequency, "a finite frequency > 0 Hz"))
         object.__setattr__(self, "phase", checks.finite(_WHERE, "vibration.phase", self.phase,
                                                         "a finite phase [rad]"))
+        checks.check_units(_WHERE, self, {"amplitude": "m", "frequency": "Hz", "phase": "rad"},
+                           "vibration.")  # as [[trajectory.errors.vibration]] (issue 27)
 
     def at(self, t: NDArray) -> NDArray[np.float64]:
         """The displacement at times ``t`` [s], shape ``t.shape + (3,)`` [m]."""
@@ -153,6 +161,7 @@ class NavigationErrors(metaclass=checks.KnownFields):
                                              "a finite time > 0 s"))
         set_(self, "sample_rate", checks.positive(_WHERE, "sample_rate", self.sample_rate,
                                                   "a finite rate > 0 Hz"))
+        checks.check_units(_WHERE, self, _UNITS)  # as [trajectory.errors] (issue 27)
         vibration = self.vibration
         if isinstance(vibration, Vibration | dict):
             vibration = (vibration,)
