@@ -605,6 +605,15 @@ def _api_specs() -> list[tuple[str, Callable[[Any], Any], str, set[str]]]:
             mitsar.Radar(), v, mitsar.Look(55.71), []), "trajectory", set()),
         ("simulate_point_targets", lambda v: mitsar.simulate_point_targets(
             mitsar.Radar(), mitsar.Trajectory.linear(*good_track), v, []), "look", set()),
+        # issue 27: the records bound their fields by unit as their TOML tables do
+        ("PointTarget", lambda v: mitsar.PointTarget([15.0, v, 0.0]), "position",
+         {"fraction", "zero", "neg", "bool"}),
+        ("Radar", lambda v: mitsar.Radar(noise_figure_db=v), "noise_figure_db",
+         {"fraction", "zero", "neg", "none"}),
+        ("NavigationErrors", lambda v: mitsar.NavigationErrors(position_noise=(v, 0.0, 0.0)),
+         "position_noise", {"fraction", "zero", "bool"}),
+        ("Vibration", lambda v: mitsar.Vibration((1e-3, 0.0, 0.0), v), "frequency",
+         {"fraction"}),
         ("Look", lambda v: mitsar.Look(v), "off_nadir_deg", {"zero", "fraction"}),
         ("Look", lambda v: mitsar.Look(45.0, v), "squint_deg", {"zero", "fraction", "neg"}),
         ("PointTarget", lambda v: mitsar.PointTarget(v), "position", set()),
@@ -1196,9 +1205,13 @@ def main(argv: list[str] | None = None) -> int:
         worker(args.seed, args.cases, args.fast, families, args.start, args.result_fd,
                args.root)
         return 0
-    clock = time.perf_counter()
+    clock, load = time.perf_counter(), os.getloadavg()
     records = campaign(args.cases, args.seed, args.fast, families,
                        log=print if args.verbose else None)
+    print(f"seed {args.seed}: {len(records)} cases in {time.perf_counter() - clock:.0f} s wall; "
+          f"load average (1, 5, 15 min) {' '.join(f'{v:.1f}' for v in load)} at the start, "
+          f"{' '.join(f'{v:.1f}' for v in os.getloadavg())} at the end, "
+          f"{os.cpu_count()} CPUs")
     print(table(records))
     bad = [r for r in records if r["verdict"] in FAILURES or r["verdict"] == "VAGUE"]
     for record in bad:
