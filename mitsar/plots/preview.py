@@ -142,7 +142,7 @@ _TARGET_STYLE = {"color": "red", "marker": "x", "ls": "", "ms": 9, "mew": 2}
 def _picture(view: Any, kinds: list[str]) -> NDArray:
     """RGB picture of a rendered view: each shape in its kind's colour, lit from over the
     camera's shoulder (faces of different orientation differ), with the outlines of shapes and
-    creases drawn dark; white where nothing is hit."""
+    creases (normals more than 25 degrees apart) drawn dark; white where nothing is hit."""
     camera = view.camera
     left, up, forward = camera.frame()
     light = -forward + 0.6 * up + 0.4 * left
@@ -155,10 +155,7 @@ def _picture(view: Any, kinds: list[str]) -> NDArray:
     for axis in (0, 1):
         other = np.roll(view.shape, -1, axis=axis)
         crease = np.abs(np.sum(view.normal * np.roll(view.normal, -1, axis=axis), axis=-1))
-        depth = np.roll(view.depth, -1, axis=axis)
-        with np.errstate(invalid="ignore"):
-            jump = np.abs(depth - view.depth) > 0.05 * np.minimum(depth, view.depth)
-        step = (other != view.shape) | (hit & (crease < 0.9)) | (hit & jump)
+        step = (other != view.shape) | (hit & (crease < 0.9))
         if axis == 0:
             step[-1, :] = False
         else:
