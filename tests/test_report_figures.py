@@ -126,6 +126,8 @@ def test_sweep_figures_label_keys_and_quantities_in_words_with_units(tmp_path,
     assert key_label("simulation.seed") == "simulation seed"
     assert quantity_label("peak_offset_m") == "peak offset [m]"
     assert quantity_label("fraction_resolved", "%") == "fraction resolved [%]"
+    assert quantity_label("points") == "points" and key_label("trajectory.points") == (
+        "trajectory points [m]")  # a count measured, a key's positions
     bandwidth = [1.0e9, 1.5e9]
     units = {"cells": "cells", "db": "dB", "m": "m"}
     data = {q: (("radar.bandwidth", "realisation", "algorithm"), np.ones((2, 2, 1)),

@@ -275,3 +275,14 @@ def test_ambiguity_table_and_figures_read_in_words():
     assert _ambiguity_value("surface_area", 307.0) == 307.0
     assert _ambiguity_figure("ambiguity_paper_side_3d")[0] == "Ambiguity, paper_side: 3-D view"
     assert _ambiguity_figure("comparison")[0] == "Trajectories compared"
+
+
+def test_interferometry_summary_reads_in_words(tmp_path):
+    """The summary's keys (``perpendicular_baseline_m``) become "perpendicular baseline [m]";
+    each row keeps its own precision (one quantity per row)."""
+    summary = {"perpendicular_baseline_m": 0.041114, "median_coherence": 0.98765,
+               "points": 17061}
+    page, _ = _page(tmp_path, interferometry={"summary": summary})
+    rows = {row[0][0]: row[1][0] for row in page.table_after("Interferometry")[1:]}
+    assert rows == {"perpendicular baseline [m]": "0.04111", "median coherence": "0.9877",
+                    "points": "17061"}

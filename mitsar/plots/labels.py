@@ -37,11 +37,13 @@ def _words(name: str) -> str:
     return " ".join(_WORDS.get(word, word) for word in name.split("_") if word)
 
 
-def _split_unit(name: str) -> tuple[str, str | None]:
+def _split_unit(name: str, keys: bool = True) -> tuple[str, str | None]:
+    """A name without its unit suffix, and the unit (of the suffix, else of an experiment key
+    when ``keys``)."""
     for suffix, unit in _SUFFIX_UNITS:
         if name.endswith(suffix) and len(name) > len(suffix):
             return name[: -len(suffix)], unit
-    return name, _KEY_UNITS.get(name)
+    return name, _KEY_UNITS.get(name) if keys else None
 
 
 def key_label(key: str) -> str:
@@ -63,7 +65,7 @@ def quantity_label(quantity: str, units: str | None = None) -> str:
     [cells]"``, ``"peak_offset_m"`` -> ``"peak offset [m]"``, ``"peak_db"`` -> ``"peak level
     [dB]"``; ``units`` (e.g. a table variable's ``units`` attribute) overrides the unit the
     name carries."""
-    name, unit = _split_unit(quantity)
+    name, unit = _split_unit(quantity, keys=False)
     unit = units or unit
     text = "peak level" if name == "peak" else _words(name)
     return f"{text} [{unit}]" if unit else text

@@ -39,6 +39,7 @@ import plyfile
 
 from mitsar.errors import MitsarError
 from mitsar.io import atomic_output, check_writable
+from mitsar.plots.labels import quantity_label
 from mitsar.version import __version__
 
 __all__ = ["RUN_RECORD", "build_report", "provenance"]
@@ -429,7 +430,7 @@ def _interferometry(folder: Path, record: dict[str, Any]) -> list[str]:
             value = ", ".join(f"{v:.4g}" if isinstance(v, float) else str(v) for v in value)
         elif isinstance(value, float) and not math.isfinite(value):
             value = "nan"
-        rows.append([key, value])
+        rows.append([quantity_label(key), value])
     parts = ["<h2>Interferometry</h2>", _table(["quantity", "value"], rows, [None, ".4g"])]
     parts.extend(_figure(folder, figure) for figure in record.get("figures", [])
                  if figure.get("section") == "Interferometry")
