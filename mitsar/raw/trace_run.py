@@ -11,6 +11,7 @@ sweeps.
 from __future__ import annotations
 
 import dataclasses
+import math
 import os
 import warnings
 from collections.abc import Iterator
@@ -112,7 +113,7 @@ class TraceRun:
             raise ParameterError(where, "look", "a mitsar.Look", type(look))
         options.resolve(where)  # the caller's errors before any scene is loaded
         radar.check_prf(trajectory.max_speed())
-        radar.require_shared_beam(where)  # per-element beams: the analytic simulator only
+        _require_shared_transmit_beams(radar, where)
         total = sweep_count(radar, trajectory.duration)
         if total < 1:
             raise ParameterError(where, "trajectory.duration",
@@ -241,10 +242,16 @@ class TraceRun:
         attitude = self.geometry.attitude.T
         transmitter = self.geometry.position + body_offset_to_world(transmitters[channel],
                                                                     *attitude)
+        beams = None
+        if radar.has_element_beams:  # receive elements with their own pattern or boresight
+            beams = tuple((transmit, receive, math.sqrt(transmit.gain * receive.gain)
+                           / radar.antenna_gain)
+                          for c in channels
+                          for transmit, receive in (radar.channel_beams(self.look)[c],))
         self.setup = dataclasses.replace(self.setup, channel_receivers=tuple(
             None if receivers[c] == transmitters[c]
             else self.geometry.position + body_offset_to_world(receivers[c], *attitude)
-            for c in channels))
+            for c in channels), channel_beams=beams)
         return channels, dataclasses.replace(self.geometry, position=transmitter)
 
     def _reception(self, where: str) -> list[str]:
@@ -444,3 +451,20 @@ def _radar_integrator(scene: Any, mi: Any) -> Any:
             _DEFAULT_INTEGRATORS.pop(next(iter(_DEFAULT_INTEGRATORS)))
         _DEFAULT_INTEGRATORS[id(scene)] = (scene, mi.load_dict({"type": "radar"}))
     return _DEFAULT_INTEGRATORS[id(scene)][1]
+
+
+def _require_shared_transmit_beams(radar: Radar, where: str) -> None:
+    """Refuse transmit elements with their own pattern or boresight (ping-pong: every
+    element transmits): the tracer's candidates, beam cull and shadow rays follow the radar's
+    antenna, the transmitter's beam shared by its receivers. Receive elements may have their
+    own (docs/interferometry.md §8)."""
+    transmitters, _ = radar.channel_elements()
+    for i, element in enumerate(transmitters):
+        if element.has_own_beam:
+            raise ParameterError(
+                where, "radar.receivers" if radar.ping_pong else "radar.transmitters",
+                "transmit elements without their own pattern or boresight in the ray tracer "
+                "(its beam cull and shadow rays follow the radar's antenna; receive elements "
+                "may have their own, and simulate_point_targets models both)",
+                f"channel {i}: {element}")
+

@@ -32,6 +32,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mitsar.model.doublelobe import TABLE_SIZE, interp_theta_table
+from mitsar.model.elements import channel_amplitude_factor
 from mitsar.model.geometry.antenna import field_pattern
 from mitsar.model.geometry.sweeps import SweepGeometry
 from mitsar.model.geometry.visibility import (
@@ -302,7 +303,7 @@ def _contribute(scene: Any, scatterers: ScattererArrays, sweep_arrays: SweepArra
     rdot = sum((qi - ai) * vi for qi, ai, vi in zip(q, a, v_rel, strict=True)) * inv_r
 
     # 2. Two-way pattern: the one-way sinc^2 power pattern is the amplitude factor.
-    u_az, u_el, _ = frame_sines(d, lambda i, j: at_sweep(sweep_arrays.frame[i][j], f32))
+    u_az, u_el, u_b = frame_sines(d, lambda i, j: at_sweep(sweep_arrays.frame[i][j], f32))
     one_way = dr.square(field_pattern(u_az, u_el, constants.f32("beta_az"),
                                       constants.f32("beta_el"), DRJIT_OPS))
 
@@ -326,12 +327,22 @@ def _contribute(scene: Any, scatterers: ScattererArrays, sweep_arrays: SweepArra
     #    each receiver of the transmitter into its own histogram rows: at the range (one at
     #    the transmitter) or at half the exact path of a receiver elsewhere, with its rate
     #    (the receiver rides with the antenna: its velocity; the attitude's rate neglected).
-    #    The rays, pattern and amplitude are the transmitter's, shared by its receivers.
-    amp = one_way * dr.sqrt(sigma) * dr.select(constants["normalized"] > 0.0, 1.0,
-                                               f32(constants["radar_const"] * inv_r * inv_r))
+    #    The rays are the transmitter's, shared by its receivers, and so is the two-way pattern
+    #    unless receive elements have their own beams (sweep_arrays.beams): then each channel
+    #    takes f_t f_r sqrt(G_t G_r) / G (channel_amplitude_factor, docs/interferometry.md §8).
+    scale = dr.sqrt(sigma) * dr.select(constants["normalized"] > 0.0, 1.0,
+                                       f32(constants["radar_const"] * inv_r * inv_r))
+    amp = one_way * scale
+    normalized = constants.value("normalized") > 0.0
     phase = at_scatterer(scatterers.phase)
     row = sweep * constants["sweep_stride"]
     for k, receiver in enumerate(sweep_arrays.receivers):
+        if sweep_arrays.beams is not None:
+            transmit, receive, gain_ratio = sweep_arrays.beams[k]
+            amp = scale * channel_amplitude_factor(u_az, u_el, u_b, transmit, receive,
+                                                   None, DRJIT_OPS)
+            if not normalized:  # sqrt(G_t G_r) / G: the radar equation's gain, per channel
+                amp = amp * gain_ratio
         path, path_rate = r, rdot
         if receiver is not None:
             b = [qi - at_sweep(rx) for qi, rx in zip(q, receiver, strict=True)]
@@ -360,6 +371,7 @@ def backscatter_chunk(scene: Any, scatterers: ScattererArrays, geometry: SweepGe
     count = scatterers.count
     sweep_arrays = backscatter_sweep_arrays(geometry, frames, radar, chosen,
                                             setup.plane_normals, setup.channel_receivers)
+    sweep_arrays.beams = setup.channel_beams
     receivers = len(sweep_arrays.receivers)
     # how far a receiver's half path may differ from the transmitter's range [m]
     apart = max((0.5 * float(np.linalg.norm(rx[chosen] - geometry.position[chosen],
@@ -373,8 +385,10 @@ def backscatter_chunk(scene: Any, scatterers: ScattererArrays, geometry: SweepGe
     # serves static 3D scatterer sets with shared shadow rays; moving sets, the 2D mode and a
     # ray per sweep keep the lane kernels. Its probes share the rays at block boundaries unless
     # the caller caps the blocks (e.g. at scene changes).
+    # Receive elements with their own beams (setup.channel_beams) take the lane kernels: the
+    # block kernel's amplitude polynomial is the transmitter's two-way pattern, one for all.
     blocked = (block_kernel_applies(config, scatterers.static, sweep_arrays.planar)
-               and len(chosen) <= MAX_CHUNK_SWEEPS)
+               and len(chosen) <= MAX_CHUNK_SWEEPS and setup.channel_beams is None)
     shared = blocked and visibility_block is None
     blocks = visibility_blocks(motion, float(config.visibility_feature),
                                len(chosen) if visibility_block is None

@@ -317,6 +317,9 @@ class SweepArrays:
         The receive phase centre at mid-sweep [m] (Float64) of each receiver of the
         transmitter (:attr:`~.setup.TraceSetup.channel_receivers`); None for a receiver at the
         transmitter (monostatic). One monostatic receiver by default.
+    beams : tuple of (ElementBeam, ElementBeam, float), or None
+        Per receiver, the (transmit, receive) element beams of its channel and gain ratio
+        (:attr:`~.setup.TraceSetup.channel_beams`; lane kernels only), or None.
     """
 
     time: Any
@@ -331,6 +334,7 @@ class SweepArrays:
     probes: SharedProbes | None = None
     step: Vector | None = None
     receivers: tuple[Vector | None, ...] = (None,)
+    beams: tuple[tuple[Any, Any, float], ...] | None = None
 
     @property
     def bistatic(self) -> bool:

@@ -48,6 +48,13 @@ class TraceSetup:
         each receiver's direct backscatter is deposited at half its exact path
         ``(|t - q| + |q - r|) / 2`` into its own histogram rows. None: one monostatic
         receiver.
+    channel_beams : tuple of (ElementBeam, ElementBeam, float), or None
+        Per receiver of :attr:`channel_receivers`, the (transmit, receive)
+        :class:`~mitsar.model.elements.ElementBeam` of its channel and its gain ratio
+        ``sqrt(G_t G_r) / G`` (radar equation) when some receive element
+        has its own pattern or boresight (docs/interferometry.md §8): its deposits then take
+        :func:`~mitsar.model.elements.channel_amplitude_factor` in place of the shared
+        two-way pattern. None: every receiver uses the radar's antenna.
     """
 
     ray_frames: NDArray
@@ -58,6 +65,7 @@ class TraceSetup:
     planar: bool
     absorbers: tuple[Any, ...] = ()
     channel_receivers: tuple[NDArray | None, ...] | None = None
+    channel_beams: tuple[tuple[Any, Any, float], ...] | None = None
 
     @property
     def receiver_count(self) -> int:
