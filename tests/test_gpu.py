@@ -176,6 +176,15 @@ def test_bpa_by_pixel_groups_matches_the_numpy_sum(jit: str) -> None:
     np.testing.assert_allclose(total, reference_total, rtol=1e-5)
 
 
+def test_bpa_focus_takes_the_faster_kernel_of_each_backend(jit: str) -> None:
+    """focus(algorithm="bpa") sums by pixel groups on the CPU (1.3-1.4x the exact kernel on 16
+    cores) and with the exact kernel on a GPU (1.6-1.9x the groups on an H100), docs/gpu.md §6;
+    the image records which (``bp_kernel``)."""
+    image = mitsar.focus(_straight_raw(), algorithm="bpa", grid=SLANT, azimuth_resolution=0.1)
+    expected = ("exact",) if jit == "cuda" else ("tiled", "tiled+exact")
+    assert image.attrs["bp_kernel"] in expected
+
+
 def test_interferometric_phase_on_each_backend(jit: str) -> None:
     """Two receivers focused by BPA onto one grid: the phase of the interferogram at the
     target's pixel equals the exact 2 pi (R1 - R2) / lambda of the two receivers' bistatic
