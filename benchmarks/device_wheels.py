@@ -6,7 +6,8 @@ most 64 MiB. So this script, run where PyPI is reachable, writes into ``.whl/`` 
 git):
 
 1. ``drjit`` and ``mitsuba`` at the versions installed here, for CPython 3.12 on
-   manylinux x86_64 (``pip download``);
+   manylinux x86_64 (``pip download``), and the small dependencies the device lacks
+   (:data:`SMALL_DEPENDENCIES`);
 2. the ``mitsuba`` wheel slimmed to the variants mitsar runs in (``llvm_ad_mono``,
    ``cuda_ad_mono``, plus ``scalar_rgb``): the full wheel (62.6 MB) and Dr.Jit (5 MB) alone
    exceed the limit; the dropped variant libraries, C++ headers and sun-sky data are not
@@ -38,6 +39,9 @@ KEEP_VARIANTS = ("scalar_rgb", "llvm_ad_mono", "cuda_ad_mono")
 
 PLATFORMS = ("manylinux_2_28_x86_64", "manylinux_2_27_x86_64", "manylinux_2_17_x86_64",
              "manylinux2014_x86_64", "manylinux1_x86_64")
+
+SMALL_DEPENDENCIES = ("plyfile", "snaphu")
+"""mitsar's dependencies that the device lacks and ``import mitsar`` loads, carried as wheels."""
 
 LIMIT = 64 * 2**20
 """What may travel to the device: working tree plus carried paths [bytes]."""
@@ -92,7 +96,10 @@ def main() -> None:
     for old in args.out.glob("*.whl"):
         old.unlink()
     tag = "cp" + args.python_version.replace(".", "")
-    pins = [f"{name}=={importlib.metadata.version(name)}" for name in ("drjit", "mitsuba")]
+    # Dr.Jit and Mitsuba, and the small dependencies `import mitsar` needs that the device
+    # lacks (plyfile: the point cloud's PLY; snaphu: unwrapping), at the versions here
+    pins = [f"{name}=={importlib.metadata.version(name)}"
+            for name in ("drjit", "mitsuba", *SMALL_DEPENDENCIES)]
     subprocess.run([sys.executable, "-m", "pip", "download", "-q", "--no-deps",
                     "--only-binary=:all:", "--python-version", args.python_version,
                     "--implementation", "cp", *[f"--platform={p}" for p in PLATFORMS],
