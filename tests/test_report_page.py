@@ -286,3 +286,14 @@ def test_interferometry_summary_reads_in_words(tmp_path):
     rows = {row[0][0]: row[1][0] for row in page.table_after("Interferometry")[1:]}
     assert rows == {"perpendicular baseline [m]": "0.04111", "median coherence": "0.9877",
                     "points": "17061"}
+
+
+def test_a_small_variance_is_not_shown_as_zero():
+    """Two realisations gave an IRW variance of 1.4e-6 cells², shown as 0.0000 beside the
+    paper's 0.006: variances in cells² are written in exponent form, one format a column."""
+    from mitsar.report.html import _table
+
+    page = Page(_table(["source", "IRW variance [cells²]", "PSLR variance [dB²]"],
+                       [["mitsar", 1.4e-6, 0.015], ["paper", 0.006, 0.269]]))
+    cells = [[text for text, _ in row[1:]] for row in page.tables[0][1:]]
+    assert cells == [["1.4e-06", "0.015"], ["6.0e-03", "0.269"]]

@@ -183,10 +183,11 @@ def provenance(seeds: dict[str, Any] | None = None) -> dict[str, Any]:
 
 _UNIT_FORMATS = {"cells": ".3f", "dB": ".2f", "m": ".3f", "mm": ".1f", "cm": ".2f",
                  "deg": ".2f", "s": ".2f", "rad": ".3f", "nats": ".4f", "%": ".1f",
-                 "cells²": ".4f", "dB²": ".3f", "m/s": ".3f", "m²": ".1f"}
+                 "cells²": ".1e", "dB²": ".3f", "m/s": ".3f", "m²": ".1f"}
 """Format of a table column by the unit in its heading (``"range IRW [cells]"``): one
 precision per quantity, about a thousandth of its natural scale (IRW in cells to 0.001, levels
-in dB to 0.01, lengths in m to a millimetre)."""
+in dB to 0.01, lengths in m to a millimetre); variances of IRW (cells²) in exponent form, as
+they span 1e-5 (a few realisations) to 1e-1 (the paper's Table 5)."""
 
 
 def _unit(heading: str) -> str | None:
