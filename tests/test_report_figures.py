@@ -87,16 +87,22 @@ def test_axis_aligned_plane_images_are_drawn_in_world_coordinates(axis_u, axis_v
     origin = np.array([14.4, 7.3, 0.0])
     target = origin + 0.6 * np.asarray(axis_u, float) + 0.7 * np.asarray(axis_v, float)
     image = _plane_image(axis_u, axis_v, origin, target)
+    image.attrs["target_positions"] = list(target) + list(origin + 0.2 * np.asarray(axis_u))
     marks = target_marks(image)
-    assert set(marks) == {"target", METRICS_MARK}
+    assert list(marks) == [f"target 0 = {METRICS_MARK}", "target 1"]  # marked once
     ax = plot_image(image, marks=marks)
     assert (ax.get_xlabel(), ax.get_ylabel()) == labels
     column, row = ("xyz".index(label[0]) for label in labels)
-    for name in ("target", METRICS_MARK):
-        (x,), (y,) = _mark(ax, name).get_data()
-        assert x == pytest.approx(target[column], abs=0.011)
-        assert y == pytest.approx(target[row], abs=0.011)
-    assert _mark(ax, METRICS_MARK).get_marker() == "o"
+    both = [line for line in ax.get_lines() if line.get_xydata().size == 2]
+    assert sorted(line.get_marker() for line in both) == ["+", "+", "o"]
+    (x,), (y,) = _mark(ax, f"target 0 = {METRICS_MARK}").get_data()
+    assert x == pytest.approx(target[column], abs=0.011)
+    assert y == pytest.approx(target[row], abs=0.011)
+    (x,), (y,) = _mark(ax, "target 1").get_data()
+    assert x == pytest.approx(origin[column] + 0.2 * sum(axis_u), abs=0.011)
+    assert _mark(ax, f"target 0 = {METRICS_MARK}").get_marker() == "o"
+    image.attrs["metrics_target"] = list(origin + 0.4 * np.asarray(axis_v))
+    assert list(target_marks(image)) == ["target 0", "target 1", METRICS_MARK]
     left, right, _, _ = ax.get_images()[0].get_extent()
     start = origin[column] - 0.01 * np.sign(sum(axis_u))
     assert left == pytest.approx(start, abs=1e-9)  # pixel edges, half a 0.02 m cell out

@@ -293,10 +293,13 @@ def plot_image(image: xr.Dataset, ax: Axes | None = None, dynamic_range_db: floa
             continue
         colour = f"C{(index + 1) % 10}"
         where = (float(show_x(where[0])), float(show_y(where[1])))
-        if name.startswith(METRICS_MARK):  # a circle: it may sit on a target's cross
+        if METRICS_MARK in name:  # a circle; with a cross when it is a target too
             ax.plot(*where, marker="o", markersize=16, markeredgewidth=1.5, color=colour,
                     markerfacecolor="none", linestyle="none", label=name)
-            ax.annotate(name, where, xytext=(8, -14), textcoords="offset points", color=colour)
+            if name != METRICS_MARK:
+                ax.plot(*where, marker="+", markersize=14, markeredgewidth=1.5, color=colour,
+                        linestyle="none")
+            ax.annotate(name, where, xytext=(10, 8), textcoords="offset points", color=colour)
             continue
         ax.plot(*where, marker="+", markersize=14, markeredgewidth=1.5, color=colour,
                 linestyle="none", label=name)
@@ -565,7 +568,8 @@ def plot_file(path: str | os.PathLike, out: str | os.PathLike, overwrite: bool =
 
 
 METRICS_MARK = "metrics target"
-"""Name of the mark of the point where the metrics are measured (drawn as a circle)."""
+"""Name of the mark of the point where the metrics are measured (drawn as a circle; a target
+there is marked once, ``"target = metrics target"``, circle and cross)."""
 
 
 def target_marks(image: xr.Dataset) -> dict[str, list[float]]:
@@ -579,7 +583,13 @@ def target_marks(image: xr.Dataset) -> dict[str, list[float]]:
         marks[name] = [float(v) for v in position]
     metrics_target = metrics_request(image)[0]
     if metrics_target is not None and len(metrics_target) == 3:
-        marks[METRICS_MARK] = [float(v) for v in metrics_target]
+        same = [name for name, position in marks.items()
+                if np.linalg.norm(np.subtract(position, metrics_target)) < 1e-6]
+        if same:  # one mark, one label: "target = metrics target"
+            marks = {(f"{name} = {METRICS_MARK}" if name == same[0] else name): position
+                     for name, position in marks.items()}
+        else:
+            marks[METRICS_MARK] = [float(v) for v in metrics_target]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         return {k: v for k, v in marks.items() if _mark_location(image, v) is not None}
