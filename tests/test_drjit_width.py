@@ -110,3 +110,34 @@ def test_back_projection_runs_at_a_crashing_width():
                           text=True, timeout=300, cwd=ROOT)
     assert done.returncode == 0, (done.returncode, done.stderr[-2000:])
     assert done.stdout.strip().endswith("True")
+
+
+@pytest.mark.parametrize("curved", [False, True], ids=["sub-apertures", "pixel-band"])
+def test_ffbp_final_stage_padding_changes_no_pixel(monkeypatch, curved):
+    """FFBP's final stage (one lane a pixel, onto sub-apertures on a straight track, each
+    pixel's own band on a turn): extra lanes change no pixel's value."""
+    import math
+
+    from mitsar.focus import ffbp
+    from mitsar.focus.grid import PlaneGrid
+
+    if curved:  # a 20-degree turn of 10 m radius past the target
+        turn = math.radians(20.0)
+        track = mitsar.Trajectory.flight(
+            [[13.5, 1.4, 4.5], [15.0, 1.4, 4.5],
+             [15.0 + 1.5 * math.cos(turn), 1.4 + 1.5 * math.sin(turn), 4.5]], 0.5,
+            turn_radius=3.0)
+    else:
+        track = mitsar.Trajectory.linear([14.6, 1.4, 4.5], [0.5, 0, 0], 0.8)
+    raw = mitsar.simulate_point_targets(RADAR, track, mitsar.Look(55.7),
+                                        [mitsar.PointTarget(TARGET)], normalized=True)
+    grid = PlaneGrid(origin=TARGET, axis_u=[1, 0, 0], axis_v=[0, 1, 0], u=[-0.1, 0.1, 0.01],
+                     v=[-0.1, 0.1, 0.01])
+    options = {"azimuth_resolution": 0.1, "window": "hamming"} if curved else {}
+    image = mitsar.focus(raw, "ffbp", grid, **options)
+    monkeypatch.setattr(ffbp, "safe_width", lambda width: width + 9)
+    padded = mitsar.focus(raw, "ffbp", grid, **options)
+    assert image.attrs["ffbp_final"] == ("pixel band" if curved else "sub-apertures")
+    assert np.array_equal(image["image"].values, padded["image"].values)
+    assert np.array_equal(image["coverage"].values, padded["coverage"].values)
+    assert np.abs(image["image"].values).max() > 0

@@ -88,7 +88,7 @@ import xarray as xr
 from numpy.typing import NDArray
 from tqdm.auto import tqdm
 
-from mitsar.backend import require_backend
+from mitsar.backend import require_backend, safe_width
 from mitsar.budget import require_memory
 from mitsar.errors import ParameterError
 from mitsar.focus.aperture import aspect_frames, sweep_window, track_coordinates
@@ -246,11 +246,16 @@ def focus_ffbp(raw: xr.Dataset, layout_or_pixels: dict | NDArray, *, half_width:
             kept.append(stage)
         bar.update()
 
-    # Final stage: onto the pixels, with the azimuth window per sub-aperture.
+    # Final stage: onto the pixels, with the azimuth window per sub-aperture; one lane a pixel,
+    # padded past Dr.Jit 1.5's crashing widths (_pad_lanes).
     coordinates = None
+    count = len(pixels)
+    width = safe_width(count)
     if band is not None:  # every pixel's own band, from the sub-apertures of all stages
-        launched = merge_band(kept, pixels - origin_local, band["frame"], band["range"],
-                             tables, half_width, bp.coefficients, wavenumber)
+        local, direction, centre, band_first, band_end = _pad_lanes(
+            width, pixels - origin_local, *band["frame"], *band["range"])
+        launched = merge_band(kept, local, (direction, centre), (band_first, band_end),
+                              tables, half_width, bp.coefficients, wavenumber)
     elif bp.straight:
         origin, direction, _ = track_frame(raw)
         coordinates = track_coordinates(pixels, origin, direction)
@@ -262,10 +267,10 @@ def focus_ffbp(raw: xr.Dataset, layout_or_pixels: dict | NDArray, *, half_width:
         first_child = np.zeros(len(pixels), dtype=np.uint32)
         end_child = np.full(len(pixels), len(stage.first), dtype=np.uint32)
     if band is None:
-        launched = merge_points(stage, pixels - origin_local, first_child, end_child,
-                                wavenumber, with_totals)
+        launched = merge_points(stage, *_pad_lanes(width, pixels - origin_local, first_child,
+                                                   end_child), wavenumber, with_totals)
     weights = aperture_weights(bp, raw, pixels, half_width, coordinates)  # while it runs
-    merged, total = to_numpy(*launched)
+    merged, total = (part[:count] for part in to_numpy(*launched))
     bar.update()
     bar.close()
 
@@ -279,6 +284,18 @@ def focus_ffbp(raw: xr.Dataset, layout_or_pixels: dict | NDArray, *, half_width:
 _UNWINDOWED = 4.0
 """Half width in direction sine of the first stage's window when each pixel's band is cut at
 the end: larger than any offset ``|v . l - u_c| <= 2``, so every sweep has weight 1."""
+
+
+def _pad_lanes(width: int, *arrays: NDArray) -> list[NDArray]:
+    """Per-pixel arrays padded to ``width`` rows by repeating their last row.
+
+    The final stage's kernels run one independent lane a pixel (no sum across lanes), so the
+    extra lanes, which take the kernel width past the band where Dr.Jit 1.5's LLVM backend
+    crashes (:func:`mitsar.backend.safe_width`, at most 15 of them), change no other pixel's
+    value; theirs are dropped. ``width`` equal to the rows: the arrays as they are.
+    """
+    return [np.concatenate([a, np.repeat(a[-1:], width - len(a), axis=0)]) if width > len(a)
+            else a for a in arrays]
 
 
 def _band_setup(bp: Prepared, layout_or_pixels: dict | NDArray, pixels: NDArray,
