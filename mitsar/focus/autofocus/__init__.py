@@ -8,6 +8,7 @@ raw sweeps are corrected by ``exp(-j phi_k)`` and refocused by the caller's focu
 and measured numbers: ``docs/autofocus.md``.
 
 Modules: :mod:`~mitsar.focus.autofocus.contributions` (the per-sweep BP terms ``c_k(x)``),
+:mod:`~mitsar.focus.autofocus.selection` (scatterers that stand out of their clutter),
 :mod:`~mitsar.focus.autofocus.lines` (azimuth lines through scatterers),
 :mod:`~mitsar.focus.autofocus.phase` (gradient integration, trend removal),
 :mod:`~mitsar.focus.autofocus.pga`, :mod:`~mitsar.focus.autofocus.entropy`,

@@ -86,13 +86,17 @@ def run_autofocus(raw: xr.Dataset, image: xr.Dataset,
         ``autofocus_entropy_before`` / ``autofocus_entropy_after`` (of the whole image,
         nats), ``autofocus_scatterers``, ``autofocus_seconds``, ``autofocus_applied`` (0 when
         the correction made the image worse and ``fallback`` returned the uncorrected one),
-        ``autofocus_warning`` (the warning's text, empty if none) and the method's options.
+        ``autofocus_warning`` (the warning's text, empty if none),
+        ``autofocus_scatterer_scr_db`` (the scatterers' ratios to their clutter, dB;
+        :mod:`mitsar.focus.autofocus.selection`) and the method's options.
 
     Warns
     -----
     MitsarWarning
-        When the method did not converge or the correction raised the image's entropy
-        (:func:`warning_text`: what happened, what was returned, what to try).
+        When no scatterer stands out of the clutter (nothing to estimate from: the
+        uncorrected image is returned), the method did not converge, or the correction raised
+        the image's entropy (:func:`warning_text`: what happened, what was returned, what to
+        try).
     """
     record = make_options(method, options)
     start = time.perf_counter()
@@ -124,8 +128,8 @@ def run_autofocus(raw: xr.Dataset, image: xr.Dataset,
             used = lines.history.shape[1]
             # the image chips around the scatterers, with the focuser's own aperture: the
             # stage whose estimate makes them sharpest is kept (estimate_entropy, check)
-            chips = positions[chip_pixels(magnitude.shape, chosen[:used], cell_pixels(image),
-                                          record.check_cells)]
+            chips = positions[chip_pixels(magnitude.shape, chosen[:min(used, CHECK_SCATTERERS)],
+                                          cell_pixels(image), record.check_cells)]
             check = contributions(data, chips) * aperture_weights(data, chips)
             phase, info = estimate_entropy(lines, record, check)
         info["scatterer_scr_db"] = [round(float(v), 2) for v in scr_db[:used]]
@@ -162,6 +166,10 @@ def _nothing_to_focus(raw: xr.Dataset, image: xr.Dataset, method: str,
              "applied": False, "converged": False, "warning": message}
     return attach_phase(image, raw, np.zeros(raw.sizes["sweep"]), attrs)
 
+
+CHECK_SCATTERERS = 4
+"""Scatterers (highest scatterer-to-clutter ratio first) whose image chips check the entropy
+stages (:func:`~mitsar.focus.autofocus.entropy.estimate_entropy`, ``check``)."""
 
 DEGRADED_NATS = 1e-3
 """Entropy rise of the whole image [nats] above which a correction counts as degrading it."""
@@ -200,7 +208,8 @@ def warning_text(method: str, record: PGAOptions | EntropyOptions, info: dict, b
                 "defocused)" if applied else "the uncorrected image is returned "
                 "(autofocus_applied = 0; autofocus_phase holds the rejected estimate)")
     advice = ("try autofocus='entropy', more 'iterations', or fewer and brighter "
-              "'scatterers' (a smaller 'dynamic_range_db') in autofocus_options"
+              "'scatterers' (a higher 'min_scr_db' or a smaller 'dynamic_range_db') in "
+              "autofocus_options"
               if method == "pga" else
               "try autofocus='pga', more 'iterations', a coarser 'finest' (sweeps per "
               "phase) or fewer 'scatterers' in autofocus_options")

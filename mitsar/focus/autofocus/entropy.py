@@ -78,7 +78,8 @@ class EntropyOptions:
         while the image stayed defocused), so keep None unless ``finest`` > 1.
     check_cells : float
         Half size of the image chips around the scatterers whose entropy chooses the stage
-        returned, resolution cells (default 4; ``check`` of :func:`estimate_entropy`).
+        returned, resolution cells (default 2; ``check`` of :func:`estimate_entropy`; the
+        chips of the four scatterers of highest scatterer-to-clutter ratio).
     max_pixels : int
         Image pixels at most with ``domain="image"`` (default 2^14).
     fallback : bool
@@ -103,7 +104,7 @@ class EntropyOptions:
     clutter_cells: float = 8.0
     oversample: int = 2
     line_cells: float | None = None
-    check_cells: float = 4.0
+    check_cells: float = 2.0
     max_pixels: int = 1 << 14
     max_elements: int = 1 << 23
     fallback: bool = True
