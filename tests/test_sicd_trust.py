@@ -258,6 +258,10 @@ def test_weighting_is_the_window_applied(tmp_path):
     with path.open("rb") as handle, sksicd.NitfReader(handle) as reader:
         pixels = reader.read_image().astype(complex)
         xml = reader.metadata.xmltree
+    if SICDCHECK.exists():  # WgtFunct's indices and sizes as sarkit reads them
+        result = subprocess.run([str(SICDCHECK), str(path), "--ignore", OSR_CHECKS],
+                                capture_output=True, text=True, check=False)
+        assert result.returncode == 0, result.stdout[-3000:]
     x = np.linspace(0.0, 1.0, WEIGHT_SAMPLES)
     declared = {}
     for dim, window, name in (("Row", "hamming", "HAMMING"), ("Col", "taylor", "TAYLOR")):
