@@ -43,10 +43,10 @@ from numpy.typing import NDArray
 
 from mitsar.checks import KnownFields, is_real
 from mitsar.errors import ParameterError
+from mitsar.model.geometry.attitude import Look
 from mitsar.model.ops import NUMPY_OPS
 
 if TYPE_CHECKING:
-    from mitsar.model.geometry.attitude import Look
     from mitsar.model.radar import Radar
 
 __all__ = ["Element", "ElementBeam", "channel_amplitude_factor", "element_beam",
@@ -117,7 +117,6 @@ class Element(metaclass=KnownFields):
                 raise ParameterError("Element", "boresight", "None with off_nadir_deg (give "
                                      "the boresight as angles or as a vector, not both)",
                                      self.boresight)
-            from mitsar.model.geometry.attitude import Look
             try:  # Look's checks: off nadir in [0, 180), squint in (-90, 90)
                 look = Look(self.off_nadir_deg, 0.0 if self.squint_deg is None
                             else self.squint_deg)
@@ -179,7 +178,6 @@ def _vector(name: str, value: Any, expected: str) -> tuple[float, float, float]:
 def element_frame(element: Element, look: Look) -> NDArray[np.float64]:
     """The element's antenna-to-body rotation (columns: azimuth axis, elevation axis,
     boresight), module docstring; the look's for an element without a boresight of its own."""
-    from mitsar.model.geometry.attitude import Look
     if element.off_nadir_deg is not None:
         return Look(element.off_nadir_deg, element.squint_deg or 0.0).antenna_to_body()
     if element.boresight is None:
