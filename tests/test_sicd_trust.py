@@ -141,6 +141,7 @@ def test_sarpy_finds_the_metadata_valid(product, caplog):
     errors = [r.getMessage() for r in caplog.records if r.levelno >= logging.ERROR]
     assert valid and errors == []
     assert "TimeCOAPoly is scalar" not in caplog.text  # the warning, gone
+    assert "No Timeline.IPP" not in caplog.text  # the sweep rate is there for its analyses
 
 
 def test_time_coa_at_the_scp_is_its_centre_of_aperture(product):

@@ -589,8 +589,15 @@ def write_sicd(image_product: xr.Dataset, path: str | os.PathLike, *,
                         range_window if row_is_range else window),
         "Col": grid_dim(layout["u_col"], layout["col_spacing"], col_resolution,
                         window if row_is_range else range_window)}
-    xml["Timeline"] = {"CollectStart": COLLECT_START,
-                       "CollectDuration": float(time[-1] + radar.sweep_duration / 2)}
+    # Timeline/IPP (Vol. 1 §4.5): one set, sweep index = rate x time from the first sweep's
+    # start, the rate the sweeps' mean spacing (prf, or prf / N_tx for a TDM channel)
+    timeline: dict = {"CollectStart": COLLECT_START,
+                      "CollectDuration": float(time[-1] + radar.sweep_duration / 2)}
+    if len(time) > 1 and time[-1] > time[0]:
+        rate = (len(time) - 1) / float(time[-1] - time[0])
+        timeline["IPP"] = {"Set": [{"TStart": 0.0, "TEnd": len(time) / rate, "IPPStart": 0,
+                                    "IPPEnd": len(time) - 1, "IPPPoly": [0.0, rate]}]}
+    xml["Timeline"] = timeline
     xml["Position"] = {"ARPPoly": arp_poly}
     xml["RadarCollection"] = {
         "TxFrequency": {"Min": low, "Max": high},
@@ -622,8 +629,11 @@ def write_sicd(image_product: xr.Dataset, path: str | os.PathLike, *,
                   "mitsar.flip_col": str(int(layout["flip_col"])),
                   **{k: repr(v) for k, v in image.attrs.items() if k.startswith("radar_")}}
     for parent, child in (("RadarCollection/{ns}Waveform", "WFParameters"),
-                          ("RadarCollection/{ns}RcvChannels", "ChanParameters")):
+                          ("RadarCollection/{ns}RcvChannels", "ChanParameters"),
+                          ("Timeline/{ns}IPP", "Set")):
         node = root.find(f"{{{ns}}}" + parent.format(ns=f"{{{ns}}}"))
+        if node is None:
+            continue
         node.set("size", str(len(node)))
         for index, item in enumerate(node.findall(f"{{{ns}}}{child}"), start=1):
             item.set("index", str(index))
