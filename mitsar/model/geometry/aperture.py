@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.spatial import cKDTree
 
 from mitsar.errors import ParameterError
 from mitsar.model.geometry.attitude import body_to_world
@@ -80,6 +79,8 @@ def aperture_centre(aperture_position: ArrayLike, pixels: ArrayLike) -> NDArray[
     ndarray of int, shape (...)
     """
     pixels = np.asarray(pixels, float)
+    from scipy.spatial import cKDTree  # lazy: SciPy's spatial tools are heavy
+
     _, index = cKDTree(np.asarray(aperture_position, float)).query(pixels.reshape(-1, 3))
     return np.asarray(index, np.int64).reshape(pixels.shape[:-1])
 
