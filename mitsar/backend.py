@@ -240,7 +240,7 @@ def use_backend(backend: str | None) -> Iterator[str]:
 UNSAFE_WIDTH_BAND = 16
 """Dr.Jit 1.5's LLVM backend crashes (SIGSEGV inside ``dr.eval``) on some kernels whose width
 lies just below a power of two from 2^20 up: measured at ``2^22 - d`` for ``3 <= d <= 14``
-(and at ``2^20 - 4``, ``2^23 - 4``), never at ``2^k`` itself nor at ``d >= 16``
+(and at ``2^20 - 4``, ``2^20 - 8``, ``2^23 - 4``), never at ``2^k`` itself nor at ``d >= 16``
 (docs/reliability.md §5, ``scripts/drjit_width_crash.py``)."""
 
 

@@ -9,7 +9,11 @@ with drjit 1.5.0 / mitsuba 3.9.1 (no newer release on PyPI).
 
 Run: ``python scripts/drjit_width_crash.py [WIDTH]`` (default 2^22 - 4); each width in a fresh
 process: ``for d in 1 2 3 4 14 16; do python scripts/drjit_width_crash.py $((4194304 - d)); done``.
-mitsar pads its analytic kernel's lanes past such widths (:func:`mitsar.backend.safe_width`).
+mitsar pads its kernels' lanes past such widths (:func:`mitsar.backend.safe_width`: the analytic
+simulator, both back-projection kernels, FFBP's final stage). Back-projection crashed the same
+way at 2^20 - 8 lanes (``tests/test_drjit_width.py``), 3 times in 3 with Dr.Jit imported before
+NumPy and SciPy and 0 in 5 imported after them: whether a width in the band crashes depends on
+the process's state, not on the kernel alone.
 """
 
 from __future__ import annotations
