@@ -179,10 +179,15 @@ def simulate_pass(experiment: Experiment, index: int, progress: bool = False,
     seed = experiment.pass_seed(index)
     quiet = dataclasses.replace(single, simulation=dataclasses.replace(single.simulation,
                                                                        noise=False))
-    raw = _simulate(quiet, progress, scene)
+    chosen = experiment.passes[index]
+    with warnings.catch_warnings(record=True) as said:  # said again, naming the pass
+        warnings.simplefilter("always")
+        raw = _simulate(quiet, progress, scene)
+    for warning in said:  # (e.g. its reception warnings: issue 27, docs/reliability.md §3)
+        warnings.warn_explicit(f"pass {index} ({chosen.name}): {warning.message}",
+                               warning.category, warning.filename, warning.lineno)
     if noise:
         _add_noise(raw, experiment.radar, seed)
-    chosen = experiment.passes[index]
     raw.attrs.update({"pass": index, "pass_count": len(experiment.passes),
                       "pass_name": chosen.name, "pass_seed": seed,
                       "pass_seed_rule": PASS_SEED_RULE,
