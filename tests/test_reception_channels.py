@@ -99,3 +99,25 @@ def test_the_report_lists_reception_warnings_per_pass(tmp_path, passes: bool) ->
     assert run.record["warnings"] == [
         f"reception{label}: targets[0] at [1, 2, 3] m is beyond max_range",
         f"reception{label}: B"]
+
+
+def test_each_pass_says_its_own_reception_warnings_naming_the_pass() -> None:
+    """Two passes of the paper's point target, the second 3 m further away: only its echo is
+    beyond max_range = 9 m, said with the pass's index and name (mitsar.experiment.runs)."""
+    import tomllib
+
+    from mitsar.experiment import example_path, experiment_from_dict, simulate_passes
+
+    document = tomllib.loads(example_path("paper_point_target").read_text())
+    document["radar"]["max_range"] = 9.0
+    document["trajectory"].update(start=[14.8, 1.4, 4.5], duration=0.2)
+    document.pop("background")
+    document["passes"] = [{"name": "near"}, {"name": "far", "offset": [0.0, -3.0, 0.0]}]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        raws = simulate_passes(experiment_from_dict(document))
+    said = [str(w.message) for w in caught if issubclass(w.category, MitsarWarning)
+            and "max_range" in str(w.message)]
+    assert len(said) == 1 and said[0].startswith("pass 1 (far): ")
+    assert "reception_warnings" not in raws[0].attrs
+    assert "beyond max_range" in raws[1].attrs["reception_warnings"]
