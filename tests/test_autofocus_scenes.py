@@ -7,6 +7,8 @@ measured in docs/autofocus.md, "Trust"; these tests check the decision and the t
 
 from __future__ import annotations
 
+import numpy as np
+
 from mitsar.focus.autofocus.driver import assess, warning_text
 from mitsar.focus.autofocus.entropy import EntropyOptions
 from mitsar.focus.autofocus.pga import PGAOptions
@@ -39,3 +41,38 @@ def test_a_degrading_correction_is_refused_and_said():
     for part in ("made the image worse", "7.600 -> 7.700", "uncorrected image is returned",
                  "autofocus_applied = 0", "autofocus='pga'"):
         assert part in text, part
+
+
+def test_speckle_alone_offers_no_scatterer_and_a_point_over_it_is_found():
+    """Fully developed speckle (exponential intensity, median ln 2 <t>): a pixel exceeds its
+    median by 15 dB with probability exp(-31.6 ln 2) = 3e-10, so none of 65536 passes; a
+    point set 25 dB over the median is found first, its ratio read back within 1 dB (the
+    median of the 17 x 17-cell box is estimated from ~290 speckle pixels: ~0.3 dB rms)."""
+    from mitsar.focus.autofocus.selection import select_scatterers
+
+    rng = np.random.default_rng(24)
+    power = rng.exponential(1.0, (256, 256))
+    found, _ = select_scatterers(np.sqrt(power), 8, 30.0, 0.5, min_scr_db=15.0)
+    assert len(found) == 0
+    power[100, 140] = 10 ** 2.5 * np.log(2)  # 25 dB over the median ln 2
+    found, scr = select_scatterers(np.sqrt(power), 8, 30.0, 0.5, min_scr_db=15.0)
+    assert found[0] == np.ravel_multi_index((100, 140), power.shape)
+    assert abs(scr[0] - 25.0) < 1.0
+
+
+def test_lines_that_disagree_with_the_gradient_are_left_out():
+    """Three lines share a phase gradient; two more are clutter (random phase each sweep,
+    coherence ~ 1/sqrt(S) = 0.07 for S = 200): the clutter lines are dropped and the gradient
+    is the shared one to float precision."""
+    from mitsar.focus.autofocus.pga import _consensus_gradient
+
+    rng = np.random.default_rng(7)
+    sweeps = 200
+    truth = np.cumsum(rng.normal(0, 0.5, sweeps))
+    point = np.exp(1j * truth)[:, None] * np.array([1.0, 0.8, 0.6])
+    clutter = 2.0 * np.exp(2j * np.pi * rng.random((sweeps, 2)))  # brighter than the points
+    history = np.concatenate([point, clutter], axis=1)
+    pairs = history[1:] * history[:-1].conj()
+    gradient, kept = _consensus_gradient(pairs, 0.3)
+    assert kept.tolist() == [True, True, True, False, False]
+    assert np.allclose(gradient, np.angle(np.exp(1j * np.diff(truth))), atol=1e-12)

@@ -128,8 +128,8 @@ def run_autofocus(raw: xr.Dataset, image: xr.Dataset,
             used = lines.history.shape[1]
             # the image chips around the scatterers, with the focuser's own aperture: the
             # stage whose estimate makes them sharpest is kept (estimate_entropy, check)
-            chips = positions[chip_pixels(magnitude.shape, chosen[:min(used, CHECK_SCATTERERS)],
-                                          cell_pixels(image), record.check_cells)]
+            chips = positions[chip_pixels(magnitude.shape, chosen[:used], cell_pixels(image),
+                                          record.check_cells)]
             check = contributions(data, chips) * aperture_weights(data, chips)
             phase, info = estimate_entropy(lines, record, check)
         info["scatterer_scr_db"] = [round(float(v), 2) for v in scr_db[:used]]
@@ -166,10 +166,6 @@ def _nothing_to_focus(raw: xr.Dataset, image: xr.Dataset, method: str,
              "applied": False, "converged": False, "warning": message}
     return attach_phase(image, raw, np.zeros(raw.sizes["sweep"]), attrs)
 
-
-CHECK_SCATTERERS = 4
-"""Scatterers (highest scatterer-to-clutter ratio first) whose image chips check the entropy
-stages (:func:`~mitsar.focus.autofocus.entropy.estimate_entropy`, ``check``)."""
 
 DEGRADED_NATS = 1e-3
 """Entropy rise of the whole image [nats] above which a correction counts as degrading it."""

@@ -78,8 +78,7 @@ class EntropyOptions:
         while the image stayed defocused), so keep None unless ``finest`` > 1.
     check_cells : float
         Half size of the image chips around the scatterers whose entropy chooses the stage
-        returned, resolution cells (default 2; ``check`` of :func:`estimate_entropy`; the
-        chips of the four scatterers of highest scatterer-to-clutter ratio).
+        returned, resolution cells (default 2; ``check`` of :func:`estimate_entropy`).
     max_pixels : int
         Image pixels at most with ``domain="image"`` (default 2^14).
     fallback : bool

@@ -144,27 +144,30 @@ def _entropy(power: NDArray) -> float:
 
 
 def _consensus_gradient(pairs: NDArray, min_coherence: float) -> tuple[NDArray, NDArray]:
-    """Phase gradient from the lines that agree with it, and which lines those are.
+    """Phase gradient from the lines that agree with the others, and which lines those are.
 
     ``pairs[k, p] = g_(k+1)(p) conj(g_k(p))``. The maximum-likelihood gradient is
-    ``arg sum_p pairs[k, p]`` (Jakowatz & Wahl 1993). A line's coherence with it,
-    ``|sum_k pairs[k, p] exp(-j grad_k)| / sum_k |pairs[k, p]|``, is near 1 for a point
-    scatterer that dominates its window and about ``1/sqrt(S)`` for clutter, whose
-    sweep-to-sweep phase differences are random; lines below ``min_coherence`` are dropped and
-    the gradient taken again from the others (all lines when none would remain).
+    ``arg sum_p pairs[k, p]`` (Jakowatz & Wahl 1993). A line's coherence is taken against the
+    other lines, each with one vote (unit phasors ``u = pairs / |pairs|``, so a bright clutter
+    line cannot carry the consensus, nor vote for itself):
+    ``|sum_k pairs[k, p] conj(c_kp) / |c_kp|| / sum_k |pairs[k, p]|``, ``c_kp = sum_(p' != p)
+    u[k, p']``. It is near 1 for a point scatterer that dominates its window and about
+    ``1/sqrt(S)`` for clutter, whose sweep-to-sweep phase differences are random; lines below
+    ``min_coherence`` are dropped and the ML gradient taken from the others (from all lines
+    when none, or only one, would remain).
     """
-    total = pairs.sum(axis=1)
-    gradient = np.where(np.abs(total) > 0, np.angle(total), 0.0)
-    magnitude = np.abs(pairs).sum(axis=0)
-    agreement = np.abs((pairs * np.exp(-1j * gradient)[:, None]).sum(axis=0))
+    size = np.abs(pairs)
+    unit = np.where(size > 0, pairs / np.where(size > 0, size, 1.0), 0.0)
+    others = unit.sum(axis=1, keepdims=True) - unit
+    others = np.where(np.abs(others) > 0, others / np.maximum(np.abs(others), 1e-300), 0.0)
+    agreement = np.abs((pairs * others.conj()).sum(axis=0))
+    magnitude = size.sum(axis=0)
     coherence = agreement / np.where(magnitude > 0, magnitude, 1.0)
     kept = coherence >= min_coherence
-    if kept.any() and not kept.all():
-        total = pairs[:, kept].sum(axis=1)
-        gradient = np.where(np.abs(total) > 0, np.angle(total), 0.0)
-    else:
+    if kept.sum() < 2:
         kept = np.ones(pairs.shape[1], dtype=bool)
-    return gradient, kept
+    total = pairs[:, kept].sum(axis=1)
+    return np.where(np.abs(total) > 0, np.angle(total), 0.0), kept
 
 
 def estimate_pga(data: PulseData, points: NDArray, options: PGAOptions
