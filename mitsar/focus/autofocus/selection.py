@@ -111,7 +111,10 @@ def select_scatterers(magnitude: NDArray, count: int, dynamic_range_db: float,
 
 def chip_pixels(shape: tuple[int, int], centres: NDArray, cells: tuple[float, float],
                 half_cells: float) -> NDArray:
-    """Flat indices of the pixels within ``+- half_cells`` resolution cells of the centres.
+    """Flat indices of pixels within ``+- half_cells`` resolution cells of the centres.
+
+    Taken every ``floor(cells / 2)`` pixels along each dim (about two samples a resolution
+    cell, the Nyquist rate of the image's band), centres included.
 
     Parameters
     ----------
@@ -130,9 +133,10 @@ def chip_pixels(shape: tuple[int, int], centres: NDArray, cells: tuple[float, fl
         Sorted unique flat indices (chips clipped to the image, overlaps counted once).
     """
     half = [int(np.ceil(half_cells * c)) for c in cells]
+    step = [max(1, int(c // 2)) for c in cells]  # about two pixels a cell (Nyquist)
     rows, cols = np.unravel_index(np.asarray(centres, dtype=np.int64), shape)
-    d0, d1 = np.meshgrid(np.arange(-half[0], half[0] + 1), np.arange(-half[1], half[1] + 1),
-                         indexing="ij")
+    d0, d1 = np.meshgrid(np.arange(-half[0], half[0] + 1, step[0]),
+                         np.arange(-half[1], half[1] + 1, step[1]), indexing="ij")
     r = np.clip(rows[:, None] + d0.ravel()[None, :], 0, shape[0] - 1)
     c = np.clip(cols[:, None] + d1.ravel()[None, :], 0, shape[1] - 1)
     return np.unique(np.ravel_multi_index((r.ravel(), c.ravel()), shape))
