@@ -355,7 +355,10 @@ def _run_lanes(profile: NDArray, frequency: NDArray, radar: Radar, centre: NDArr
     which = dr.arange(UInt32, width) % dr.opaque(UInt32, lanes)  # split-major
 
     def per_lane(kind: type, values: NDArray, dtype: type) -> Any:
-        return dr.gather(kind, jit_array(kind, values, dtype), which)
+        # the lanes' values (padded past the crashing widths too; ``which`` reads the first L)
+        extra = safe_width(len(values)) - len(values)
+        padded = np.concatenate([values, np.repeat(values[-1:], extra)]) if extra else values
+        return dr.gather(kind, jit_array(kind, padded, dtype), which)
 
     lane = {"centre": [per_lane(Float64, centre[:, i], np.float64) for i in range(3)],
             "step": [dr.opaque(Float32, float(v)) for v in offsets] if regular else None,
