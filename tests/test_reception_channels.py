@@ -121,3 +121,22 @@ def test_each_pass_says_its_own_reception_warnings_naming_the_pass() -> None:
     assert len(said) == 1 and said[0].startswith("pass 1 (far): ")
     assert "reception_warnings" not in raws[0].attrs
     assert "beyond max_range" in raws[1].attrs["reception_warnings"]
+
+
+def test_the_tracer_checks_a_scene_point_target_per_channel() -> None:
+    """The canned point_target scene (T_p = [15, 8, 0.03] m) traced by an interferometer whose
+    second receiver is 5 cm behind the antenna along the line of sight, max_range 5 mm beyond
+    the reference point's farthest range: the tracer names channel 1 (and records it)."""
+    track = mitsar.Trajectory.linear([14.8, 1.4, 4.5], [0.5, 0.0, 0.0], 0.02)
+    aim = np.array([15.0, 8.0, 0.03])
+    middle = np.asarray(track.position(0.01))
+    sight = (aim - middle) / np.linalg.norm(aim - middle)
+    far = max(np.linalg.norm(aim - track.position(t)) for t in (0.0, 0.02))
+    radar = mitsar.Radar(max_range=far + 0.005, receivers=[(0.0, 0.0, 0.0),
+                                                           tuple(-0.05 * sight)])
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        raw = mitsar.simulate_scene(radar, track, mitsar.Look(55.7), "point_target")
+    said = [str(w.message) for w in caught if "channels [1]" in str(w.message)]
+    assert len(said) == 1 and "the scene's point target 0" in said[0]
+    assert "channels [1]" in raw.attrs["reception_warnings"]

@@ -16,6 +16,7 @@ over a flight; :func:`reception_warnings` words them for the user, naming each s
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -168,7 +169,10 @@ through the set: the sentence gives fractions of the scene, so a sample does).""
 
 
 def scene_reception_warnings(radar: Radar, positions: ArrayLike, point_targets: int,
-                             antenna: ArrayLike, frames: ArrayLike) -> list[str]:
+                             antenna: ArrayLike, frames: ArrayLike, *,
+                             reference: ArrayLike | None = None,
+                             attitude: ArrayLike | None = None,
+                             channels: Sequence[int] | None = None) -> list[str]:
     """:func:`reception_warnings` of a traced scene: each point target by name, and the part
     of the surface that the main lobe sees in some sweep but that lies beyond ``max_range``
     or in the near field (a fraction of an evenly strided sample of :data:`SCENE_SAMPLE`
@@ -181,6 +185,10 @@ def scene_reception_warnings(radar: Radar, positions: ArrayLike, point_targets: 
         targets (:class:`mitsar.model.scatterers.ScattererSet`).
     antenna, frames
         As :func:`reception` (at :data:`SWEEPS_SAMPLED` sweeps at most).
+    reference, attitude, channels : optional
+        The radar's reference point [m] and body-to-world rotations at the same sweeps, and
+        the channels traced: the point targets are then checked per channel too
+        (:func:`channel_warnings`).
     """
     positions = np.asarray(positions, dtype=float).reshape(-1, 3)
     surface = len(positions) - point_targets
@@ -189,8 +197,11 @@ def scene_reception_warnings(radar: Radar, positions: ArrayLike, point_targets: 
         targets = positions[surface:]
         names = [f"the scene's point target {i} at [{', '.join(f'{v:g}' for v in p)}] m"
                  for i, p in enumerate(targets)]
-        messages += reception_warnings(radar, reception(radar, targets, antenna, frames),
-                                       names)
+        seen = reception(radar, targets, antenna, frames)
+        messages += reception_warnings(radar, seen, names)
+        if attitude is not None and reference is not None:
+            messages += channel_warnings(radar, targets, reference, attitude, names, seen,
+                                         channels=channels)
     if surface:
         sample = positions[:surface][::max(1, surface // SCENE_SAMPLE)]
         seen = reception(radar, sample, antenna[::max(1, len(antenna) // 64)],
@@ -216,8 +227,8 @@ def scene_reception_warnings(radar: Radar, positions: ArrayLike, point_targets: 
 
 def channel_warnings(radar: Radar, positions: ArrayLike, antenna: ArrayLike,
                      attitude: ArrayLike, names: list[str], reference: Reception,
-                     velocities: ArrayLike | None = None, times: ArrayLike | None = None
-                     ) -> list[str]:
+                     velocities: ArrayLike | None = None, times: ArrayLike | None = None,
+                     channels: Sequence[int] | None = None) -> list[str]:
     """Per interferometric channel (docs/interferometry.md): the band and near-field checks of
     :func:`reception_warnings` at each channel's own geometry, said where a channel loses more
     than the radar's reference point does (which :func:`reception_warnings` already names).
@@ -244,6 +255,8 @@ def channel_warnings(radar: Radar, positions: ArrayLike, antenna: ArrayLike,
         :func:`reception` at the reference point (what is already said).
     velocities, times
         As :func:`reception`.
+    channels : sequence of int, optional
+        The channels produced (a traced run of one transmitter's channels); all by default.
 
     Returns
     -------
@@ -263,6 +276,12 @@ def channel_warnings(radar: Radar, positions: ArrayLike, antenna: ArrayLike,
         where = where + (np.asarray(velocities, float).reshape(-1, 3)[None]
                          * np.asarray(times, float)[chosen, None, None])
     transmitters, receivers = radar.channel_offsets()
+    if channels is not None:
+        kept = sorted(set(channels))
+        transmitters, receivers = ([t for c, t in enumerate(transmitters) if c in kept],
+                                   [r for c, r in enumerate(receivers) if c in kept])
+    else:
+        kept = list(range(len(receivers)))
 
     def centre(offset: tuple[float, float, float]) -> NDArray[np.float64]:
         """World position of a body-frame phase centre at the sampled sweeps, (sweeps, 3)."""
@@ -283,11 +302,12 @@ def channel_warnings(radar: Radar, positions: ArrayLike, antenna: ArrayLike,
                     for c in lost]
             messages.append(
                 f"{name} is beyond max_range = {radar.max_range:g} m for channels "
-                f"{lost.tolist()} in more sweeps than at the radar's reference point (their "
-                f"half path (|q - t| + |q - r|) / 2 reaches {max(h.max() for h in half):.3f} "
-                "m): those channels' beat frequency lies above the receiver's band, where a "
-                "real receiver rejects it (raise max_range or move the target)")
-        near = [offset for offset in dict.fromkeys(receivers + transmitters)
+                f"{[kept[c] for c in lost]} in more sweeps than at the radar's reference point "
+                "(their half path (|q - t| + |q - r|) / 2 reaches "
+                f"{max(h.max() for h in half):.3f} m): those channels' beat frequency lies "
+                "above the receiver's band, where a real receiver rejects it (raise max_range "
+                "or move the target)")
+        near = [offset for offset in dict.fromkeys(list(receivers) + list(transmitters))
                 if ranges[offset][:, i].min() < far]
         if near and not reference.near_field[i]:
             messages.append(
