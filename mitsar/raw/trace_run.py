@@ -24,7 +24,12 @@ from tqdm.auto import tqdm
 from mitsar.budget import require_memory
 from mitsar.errors import MitsarWarning, ParameterError
 from mitsar.model import histogram as hg
-from mitsar.model.geometry.attitude import Look, antenna_frame, body_offset_to_world
+from mitsar.model.geometry.attitude import (
+    Look,
+    antenna_frame,
+    body_offset_to_world,
+    body_to_world,
+)
 from mitsar.model.geometry.navigation import (
     NavigationErrors,
     describe_navigation,
@@ -259,10 +264,11 @@ class TraceRun:
         the part of its surface in the beam that cannot be received as modelled: beyond
         ``max_range`` or in the near field (:func:`scene_reception_warnings`); the traced
         product records the sentences (``reception_warnings``)."""
-        messages = scene_reception_warnings(self.radar, self.scatterers.position,
-                                            self.scatterers.point_target_count,
-                                            self.trace_geometry.position[self.sweeps],
-                                            self.frames[self.sweeps])
+        messages = scene_reception_warnings(
+            self.radar, self.scatterers.position, self.scatterers.point_target_count,
+            self.trace_geometry.position[self.sweeps], self.frames[self.sweeps],
+            reference=self.geometry.position[self.sweeps], channels=self.channels,
+            attitude=body_to_world(*self.geometry.attitude[self.sweeps].T))  # per channel
         for message in messages:
             warnings.warn(f"{where}: {message}", MitsarWarning, stacklevel=4)
         return messages
