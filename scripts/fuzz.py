@@ -704,6 +704,23 @@ def _edge_channel(folder: Path) -> Any:
                                          [mitsar.PointTarget(target)])
 
 
+def _edge_traced_channel(folder: Path) -> Any:
+    """The canned point_target scene ([15, 8, 0.03] m) traced by an interferometer whose second
+    receiver is 5 cm behind the antenna along the line of sight, ``max_range`` 5 mm beyond the
+    reference point's farthest range: channel 1 must be named (issue 27, the tracer)."""
+    import numpy as np  # noqa: PLC0415
+
+    import mitsar  # noqa: PLC0415
+
+    track = mitsar.Trajectory.linear([14.8, 1.4, 4.5], [0.5, 0.0, 0.0], 0.02)
+    aim = np.array([15.0, 8.0, 0.03])
+    sight = (aim - track.position(0.01)) / np.linalg.norm(aim - track.position(0.01))
+    far = max(np.linalg.norm(aim - track.position(t)) for t in (0.0, 0.02))
+    radar = mitsar.Radar(max_range=far + 0.005, receivers=[(0.0, 0.0, 0.0),
+                                                           tuple(-0.05 * sight)])
+    return mitsar.simulate_scene(radar, track, mitsar.Look(55.7), "point_target")
+
+
 def _edge_pass(folder: Path) -> Any:
     """Two passes of the paper's point target, the second 3 m further away: its echo is beyond
     ``max_range`` = 9 m (issue 27: reception per pass)."""
@@ -754,7 +771,9 @@ def _issue27_api_cases() -> list[tuple[str, Callable[[Path], Any], tuple[str, ..
 
     return [("interferometer: target out of band for channel 1 only", _edge_channel,
              ("channels [1]",)),
-            ("passes: the far pass beyond max_range", _edge_pass, ("beyond max_range",)),
+            ("traced interferometer: channel 1 out of band", _edge_traced_channel,
+             ("channels [1]",)),
+            ("passes: the far pass beyond max_range", _edge_pass, ("pass 1 (far)",)),
             ("load_experiment(binary file)", _text_file_case("experiment"), ("binary.toml",)),
             ("load_ambiguity_experiment(binary file)", _text_file_case("ambiguity"),
              ("binary.toml",)),

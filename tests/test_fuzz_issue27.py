@@ -33,7 +33,7 @@ CASES = {f"{case.family} {case.name}": case for case in _cases()}
 
 
 def test_every_family_has_its_load_cases() -> None:
-    assert len(CASES) == sum(map(len, fuzz.LOAD_CASES.values())) + 8
+    assert len(CASES) == sum(map(len, fuzz.LOAD_CASES.values())) + 9
     assert any("metrics.target" in name for name in CASES)
     assert any("slab_width" in name for name in CASES)
 
