@@ -66,7 +66,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     table = run_sweep(args.experiment, args.vary, out, realisations=args.realisations,
                       algorithms=args.algorithms, seed=args.seed, overrides=args.set,
                       scheduler=args.scheduler, workers=args.workers, restart=args.restart,
-                      progress=not args.quiet)
-    log(args, f"sweep table {out / 'sweep.nc'}, {out / 'sweep.csv'} and figures/: "
-              f"{table.attrs['runs']} runs, {table.attrs['failed_runs']} failed")
+                      progress=not args.quiet, table=False)
+    if table is not None:  # None: up to date, said by run_sweep
+        log(args, f"sweep table {out / 'sweep.nc'}, {out / 'sweep.csv'} and figures/: "
+                  f"{table.attrs['runs']} runs, {table.attrs['failed_runs']} failed")
     return 0
