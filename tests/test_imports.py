@@ -8,7 +8,7 @@ SciPy's signal tools are imported where they are used. Each check runs in a fres
 
 Timing: the no-op rerun's CPU time is asserted, not its wall time, which on the shared 2-core
 machine varies several-fold with the other sessions' load. Measured (load 4-6, the whole
-process): sweep 1.6-1.8 CPU-s (1.5-1.6 s wall), Monte Carlo 1.7-2.3 CPU-s, against 2.7-3.1 and
+process): sweep 1.4-1.5 CPU-s (1.5-1.6 s wall), Monte Carlo 1.7-2.3 CPU-s, against 2.7-3.1 and
 3.4-4.0 before (docs/reliability.md §7). The bound, 3 CPU-s, is the issue's 2 s with 50 % slack
 for a loaded machine (CPU time grows with the load too, by cache and memory contention).
 """
