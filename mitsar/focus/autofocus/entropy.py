@@ -68,7 +68,8 @@ class EntropyOptions:
         ``docs/autofocus.md``), so it suits sub-apertures (``finest`` > 1) only.
     scatterers, dynamic_range_db, separation_cells, min_scr_db, clutter_cells, oversample
         Selection and sampling of the lines (as :class:`PGAOptions`,
-        :mod:`mitsar.focus.autofocus.selection`; defaults 16 (32 before 2026-11), 30 dB,
+        :mod:`mitsar.focus.autofocus.selection`; defaults 8 (16, and 32 before, until
+        2026-11), 30 dB,
         0.5 resolution cells (3 pixels before 2026-11), 15 dB, 8 cells, and 1 point a cell
         (2 before 2026-11: the lines then hold about as many points as sweeps, a square,
         near-unitary transform, at half the cost per evaluation).
@@ -98,7 +99,7 @@ class EntropyOptions:
     iterations: int = 30
     tolerance: float = 1e-7
     domain: str = "lines"
-    scatterers: int = 16
+    scatterers: int = 8
     dynamic_range_db: float = 30.0
     separation_cells: float = 0.5
     min_scr_db: float = 15.0
