@@ -330,17 +330,18 @@ def _contribute(scene: Any, scatterers: ScattererArrays, sweep_arrays: SweepArra
     #    The rays are the transmitter's, shared by its receivers, and so is the two-way pattern
     #    unless receive elements have their own beams (sweep_arrays.beams): then each channel
     #    takes f_t f_r sqrt(G_t G_r) / G (channel_amplitude_factor, docs/interferometry.md §8).
-    scale = dr.sqrt(sigma) * dr.select(constants["normalized"] > 0.0, 1.0,
-                                       f32(constants["radar_const"] * inv_r * inv_r))
-    amp = one_way * scale
+    root_sigma = dr.sqrt(sigma)
+    equation = dr.select(constants["normalized"] > 0.0, 1.0,
+                         f32(constants["radar_const"] * inv_r * inv_r))
+    amp = one_way * root_sigma * equation
     normalized = constants.value("normalized") > 0.0
     phase = at_scatterer(scatterers.phase)
     row = sweep * constants["sweep_stride"]
     for k, receiver in enumerate(sweep_arrays.receivers):
         if sweep_arrays.beams is not None:
             transmit, receive, gain_ratio = sweep_arrays.beams[k]
-            amp = scale * channel_amplitude_factor(u_az, u_el, u_b, transmit, receive,
-                                                   None, DRJIT_OPS)
+            amp = channel_amplitude_factor(u_az, u_el, u_b, transmit, receive, None,
+                                           DRJIT_OPS) * root_sigma * equation
             if not normalized:  # sqrt(G_t G_r) / G: the radar equation's gain, per channel
                 amp = amp * gain_ratio
         path, path_rate = r, rdot
