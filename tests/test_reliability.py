@@ -84,7 +84,7 @@ def test_require_memory_names_the_parameter(limit: int) -> None:
 
 MEMORY_CASES = {
     "background cells": (lambda: mitsar.simulate_point_targets(
-        RADAR, TRACK, LOOK, [TARGET], mitsar.Background((15, 8, 0), (1e6, 1e6))),
+        RADAR, TRACK, LOOK, [TARGET], mitsar.Background((15, 8, 0), (1e4, 1e4))),
         "background.size"),
     "samples (duration)": (lambda: mitsar.simulate_point_targets(
         RADAR, mitsar.Trajectory.linear([14.9, 1.4, 4.5], [0.5, 0, 0], 1e4), LOOK, [TARGET]),
