@@ -203,11 +203,11 @@ naming the key: an ISLR extent of 42 cells needs a grid 42 cells beyond the targ
 INTEGER_KEYS = {"seed", "scatterers_per_cell", "max_states", "rays", "max_depth"}
 
 MEMORY_CASES = {
-    "simulate": [("background.size", [1e6, 1e6]), ("radar.sampling_frequency", 1e15),
+    "simulate": [("background.size", [1e4, 1e4]), ("radar.sampling_frequency", 1e15),
                  ("trajectory.duration", 1e4), ("focus.grid.along_track", [-1e3, 1e3, 1e-6]),
                  ("background.scatterers_per_cell", 10**12), ("focus.grid.slant_range",
                                                               [0.0, 30.0, 1e-9])],
-    "montecarlo": [("background.size", [1e6, 1e6]), ("trajectory.duration", 1e4),
+    "montecarlo": [("background.size", [1e4, 1e4]), ("trajectory.duration", 1e4),
                    ("focus.grid.slant_range", [0.0, 30.0, 1e-9])],
     "rays": [("simulation.scatterer_density", 1e12), ("trajectory.duration", 1e4)],
     "ambiguity": [("ambiguity.spacing", 1e-6), ("ambiguity.max_states", 10**18),
