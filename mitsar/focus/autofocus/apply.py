@@ -18,11 +18,31 @@ from numpy.typing import NDArray
 __all__ = ["attach_phase", "correct_raw"]
 
 
+ALIGNMENT = 64
+"""Byte alignment of the corrected samples (a cache line)."""
+
+
 def correct_raw(raw: xr.Dataset, phase: NDArray) -> xr.Dataset:
-    """A copy of ``raw`` with sweep k multiplied by ``exp(-j phase_k)`` (phase in radians)."""
+    """A copy of ``raw`` with sweep k multiplied by ``exp(-j phase_k)`` (phase in radians).
+
+    The corrected samples are written into a buffer aligned to :data:`ALIGNMENT` bytes.
+    Measured on benchmarks/bench_autofocus.py's room (same grid, alternately, load 3): the
+    focus of a product built by xarray's multiplication (samples 48 bytes off a cache line)
+    took 1.15-1.9 s against 0.6-1.4 s for the uncorrected product; from the aligned buffer
+    1.07-1.6 s against 0.83-1.34 s. The cause (Dr.Jit kernels keyed on the alignment of an
+    input, docs: :func:`mitsar.focus.backprojection.jit_array`, or a NumPy path) is not
+    pinned down; the refocus is still up to 1.3x the plain focus.
+    """
+    samples = raw["raw"]
+    product = (samples * xr.DataArray(np.exp(-1j * np.asarray(phase, dtype=float)),
+                                      dims="sweep")).transpose(*samples.dims).values
+    buffer = np.empty(product.nbytes + ALIGNMENT, dtype=np.uint8)
+    offset = (-buffer.ctypes.data) % ALIGNMENT
+    aligned = buffer[offset:offset + product.nbytes].view(product.dtype).reshape(product.shape)
+    aligned[...] = product
     corrected = raw.copy()
-    corrected["raw"] = raw["raw"] * xr.DataArray(np.exp(-1j * np.asarray(phase)), dims="sweep")
-    corrected["raw"].attrs = dict(raw["raw"].attrs)
+    corrected["raw"] = xr.DataArray(aligned, dims=samples.dims, coords=samples.coords,
+                                    attrs=dict(samples.attrs))
     return corrected
 
 
