@@ -55,7 +55,7 @@ class EntropyOptions:
         Factor between the sub-aperture counts of consecutive stages (default 4; 2 before
         2026-11).
     iterations : int
-        L-BFGS iterations per stage at most (default 20; 50, and 100 before, until 2026-11).
+        L-BFGS iterations per stage at most (default 30; 50, and 100 before, until 2026-11).
     domain : {"lines", "image"}
         Where the entropy is evaluated: on azimuth lines through the brightest scatterers
         (default; :mod:`mitsar.focus.autofocus.lines`, full beam, sampled at half a cell over
@@ -96,7 +96,7 @@ class EntropyOptions:
     coarsest: int = 2
     finest: int = 1
     growth: int = 4
-    iterations: int = 20
+    iterations: int = 30
     tolerance: float = 1e-7
     domain: str = "lines"
     scatterers: int = 8
