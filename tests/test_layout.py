@@ -16,7 +16,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "mitsar"
 # Stages from the ground up (docs/design.md §2). A module may import its own stage and the ones
 # below; a higher rank importing a lower one is the pipeline's direction.
 RANKS = {
-    "mitsar.errors": 0, "mitsar.version": 0,
+    "mitsar.errors": 0, "mitsar.version": 0, "mitsar.lazy": 0,
     "mitsar.checks": 1, "mitsar.budget": 1, "mitsar.backend": 1, "mitsar.io": 1,
     "mitsar.model": 2,
     "mitsar.products": 3,

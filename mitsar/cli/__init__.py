@@ -27,14 +27,14 @@ next), :mod:`~mitsar.cli.demo`, :mod:`~mitsar.cli.campaigns` (``montecarlo``, ``
 
 from __future__ import annotations
 
-import importlib
 import sys
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from mitsar.budget import set_memory_limit
 from mitsar.cli.parser import build_parser
 from mitsar.errors import MitsarError
+from mitsar.lazy import lazy_exports
 
 if TYPE_CHECKING:  # the same names for type checkers and the API docs (griffe reads these)
     from mitsar.cli.demo import (
@@ -91,13 +91,4 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_USAGE
 
 
-def __getattr__(name: str) -> Any:
-    """Import a public name on first use (PEP 562) and keep it in the package's namespace."""
-    if name not in _EXPORTS:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = globals()[name] = getattr(importlib.import_module(_EXPORTS[name]), name)
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals(), __all__)

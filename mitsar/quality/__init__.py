@@ -8,8 +8,9 @@ search in :mod:`~mitsar.quality.geometry` and :mod:`~mitsar.quality.peak`.
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from mitsar.lazy import lazy_exports
 
 if TYPE_CHECKING:  # the same names for type checkers and the API docs (griffe reads these)
     from mitsar.quality.cuts import ISLR_EXTENTS, first_nulls, irw, islr_db, measure_cut, pslr_db
@@ -36,13 +37,4 @@ _EXPORTS = {
 """Public names -> the module that defines each, imported on first use (PEP 562)."""
 
 
-def __getattr__(name: str) -> Any:
-    """Import a public name on first use (PEP 562) and keep it in the package's namespace."""
-    if name not in _EXPORTS:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = globals()[name] = getattr(importlib.import_module(_EXPORTS[name]), name)
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals(), __all__)
