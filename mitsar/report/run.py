@@ -578,11 +578,9 @@ def scene_label(experiment: Experiment) -> str:
     path = Path(scene)
     if not path.is_absolute():
         return scene
-    if experiment.source is not None:
-        try:
-            return str(path.relative_to(Path(experiment.source).resolve().parent))
-        except ValueError:
-            pass
+    folder = None if experiment.source is None else Path(experiment.source).resolve().parent
+    if folder is not None and path.is_relative_to(folder):
+        return str(path.relative_to(folder))
     return path.name
 
 
