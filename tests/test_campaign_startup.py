@@ -92,7 +92,7 @@ def test_a_worker_count_asks_for_a_local_cluster(tmp_path, monkeypatch):
     asked = []
 
     class Refused(Exception):
-        pass
+        """The stand-in cluster's refusal to start."""
 
     def client(scheduler, workers):
         asked.append((scheduler, workers))
