@@ -14,9 +14,8 @@ and every kernel family:
 - ``tracer``: the ``radar`` integrator on the canned ``control_volume`` room
   (:func:`mitsar.raw.traced.trace`, warm: scatterers and kernels cached), in contributions/s
   (scatterer x sweep pairs that survive the beam cull: visibility + phase + deposit) and
-  scatterer x sweep pairs/s; the Mitsuba variant follows the backend;
-- ``tracer_channels``: the same trace with two receivers 5 cm apart (one trace per
-  transmitter serves both, docs/interferometry.md), and the wall ratio to one receiver.
+  scatterer x sweep pairs/s; the Mitsuba variant follows the backend. (``trace`` traces one
+  receive channel; what a second receiver costs is ``benchmarks/bench_channels.py``'s.)
 
 Every case is run once to compile (kernel caches), then timed best of ``--repeats``; the
 functions return NumPy arrays or products, so the time includes the device synchronisation
@@ -50,7 +49,6 @@ from mitsar.focus.grid import SlantGrid
 from mitsar.focus.windows import window_coefficients
 
 RADAR = mitsar.Radar()
-PAIR = mitsar.Radar(receivers=[(0, 0, 0), (0, 0, 0.05)])  # two receive channels, 5 cm apart
 LOOK = mitsar.Look(math.degrees(math.atan2(6.6, 4.5)))
 VARIANTS = {"llvm": "llvm_ad_mono", "cuda": "cuda_ad_mono"}
 
@@ -127,7 +125,7 @@ def ffbp_case(scale: float, repeats: int) -> dict:
             "cold_seconds": cold, "size": f"{pixels} pixels x {sweeps} sweeps"}
 
 
-def tracer_case(name: str, scale: float, repeats: int, radar: mitsar.Radar = RADAR) -> dict:
+def tracer_case(name: str, scale: float, repeats: int) -> dict:
     from mitsar.plugins.variant import register_plugins
     from mitsar.raw.traced import trace
     from mitsar.scene import load_scene
@@ -137,7 +135,7 @@ def tracer_case(name: str, scale: float, repeats: int, radar: mitsar.Radar = RAD
     sweeps = max(8, int(round(512 * scale)))
     trajectory = mitsar.Trajectory.linear([14.8, 1.4, 4.5], [0.5, 0.0, 0.0],
                                           (sweeps + 0.5) / RADAR.prf)
-    cold, best, hist = _best(lambda: trace(radar, trajectory, LOOK, scene, seed=0,
+    cold, best, hist = _best(lambda: trace(RADAR, trajectory, LOOK, scene, seed=0,
                                            deterministic=False), repeats)
     attrs = hist.attrs
     return {"unit": "contributions", "work": int(attrs["traced_shadow_rays"]),
@@ -145,7 +143,7 @@ def tracer_case(name: str, scale: float, repeats: int, radar: mitsar.Radar = RAD
             "size": f"{attrs['scatterer_count']:,} scatterers x {hist.sizes['sweep']} sweeps"}
 
 
-CASES = ("analytic", "bpa", "bpa_tiled", "ffbp", "tracer", "tracer_channels")
+CASES = ("analytic", "bpa", "bpa_tiled", "ffbp", "tracer")
 
 
 def run_backend(name: str, cases: list[str], scale: float, repeats: int) -> dict:
@@ -155,9 +153,8 @@ def run_backend(name: str, cases: list[str], scale: float, repeats: int) -> dict
         for case in cases:
             start = time.perf_counter()
             try:
-                if case.startswith("tracer"):
-                    result = tracer_case(name, scale, repeats,
-                                         PAIR if case == "tracer_channels" else RADAR)
+                if case == "tracer":
+                    result = tracer_case(name, scale, repeats)
                 else:
                     result = globals()[f"{case}_case"](scale, repeats)
             except Exception as error:  # noqa: BLE001 - report, go on with the others
@@ -235,12 +232,7 @@ def main() -> None:
             ratios[case] = (gpu["work"] / gpu["seconds"]) / (cpu["work"] / cpu["seconds"])
             print(f"  {case:9s} {ratios[case]:8.1f}x")
         report["ratios"] = ratios
-    for name, cases_run in results.items():  # a second receiver's cost (the rays are shared)
-        one, two = cases_run.get("tracer", {}), cases_run.get("tracer_channels", {})
-        if "seconds" in one and "seconds" in two:
-            report.setdefault("second_receiver", {})[name] = two["seconds"] / one["seconds"]
-            print(f"{name:5s} tracer with two receivers / one: "
-                  f"{two['seconds'] / one['seconds']:.2f}x wall")
+
     if args.json:
         with open(args.json, "w") as out:
             json.dump(report, out, indent=1)
