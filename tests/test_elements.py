@@ -114,19 +114,20 @@ def test_elements_that_are_the_radars_antenna_give_todays_samples_bit_for_bit():
 
 def test_element_pattern_is_the_closed_form_and_the_radars_for_its_own_beam():
     radar, look = mitsar.Radar(), mitsar.Look(50.0, 10.0)
+    widths = (radar.azimuth_beamwidth, radar.elevation_beamwidth)
     rng = np.random.default_rng(3)
     directions = rng.normal(size=(500, 3))
     directions /= np.linalg.norm(directions, axis=1, keepdims=True)
     frame = antenna_frame(look)
     u = direction_sines(directions, frame)
-    own = element_beam(Element(), radar, look)
+    own = element_beam(Element(), widths, look)
     f = field_pattern(u[0], u[1], radar.azimuth_beamwidth, radar.elevation_beamwidth)
     assert own.identity
     assert np.array_equal(channel_amplitude_factor(*u, own, own, None),
                           np.where(u[2] > 0, f * f, 0.0))
     # an element looking elsewhere, as a body-frame vector: its own frame's sines
     vector = Element((0, 0, 0), elevation_beamwidth_deg=30.0, boresight=(0.2, 0.7, -0.5))
-    beam = element_beam(vector, radar, look)
+    beam = element_beam(vector, widths, look)
     b = np.array([0.2, 0.7, -0.5]) / np.linalg.norm([0.2, 0.7, -0.5])
     az = np.cross(b, [0, 0, 1.0])
     az /= np.linalg.norm(az)
@@ -139,7 +140,7 @@ def test_element_pattern_is_the_closed_form_and_the_radars_for_its_own_beam():
                                g * expected * np.where(u[2] > 0, f, 0.0), rtol=0, atol=1e-12)
     # a vector boresight a Look can express gives that Look's frame
     b_look = look.boresight_body()
-    same = element_beam(Element(boresight=tuple(b_look)), radar, look)
+    same = element_beam(Element(boresight=tuple(b_look)), widths, look)
     np.testing.assert_allclose(same.rotation, np.eye(3), atol=1e-12)
 
 

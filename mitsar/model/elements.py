@@ -36,7 +36,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -45,9 +45,6 @@ from mitsar.checks import KnownFields, is_real
 from mitsar.errors import ParameterError
 from mitsar.model.geometry.attitude import Look
 from mitsar.model.ops import NUMPY_OPS
-
-if TYPE_CHECKING:
-    from mitsar.model.radar import Radar
 
 __all__ = ["Element", "ElementBeam", "channel_amplitude_factor", "element_beam",
            "element_field_pattern", "element_frame"]
@@ -213,11 +210,14 @@ class ElementBeam(NamedTuple):
     identity: bool
 
 
-def element_beam(element: Element, radar: Radar, look: Look) -> ElementBeam:
-    """The :class:`ElementBeam` of ``element`` on ``radar`` mounted with ``look``."""
-    az = (radar.azimuth_beamwidth if element.azimuth_beamwidth_deg is None
+def element_beam(element: Element, beamwidths: tuple[float, float], look: Look
+                 ) -> ElementBeam:
+    """The :class:`ElementBeam` of ``element`` mounted with ``look`` on a radar whose antenna
+    has ``beamwidths`` = (azimuth, elevation) [rad] (:attr:`Radar.azimuth_beamwidth`,
+    :attr:`Radar.elevation_beamwidth`: an element without its own takes the radar's)."""
+    az = (beamwidths[0] if element.azimuth_beamwidth_deg is None
           else math.radians(element.azimuth_beamwidth_deg))
-    el = (radar.elevation_beamwidth if element.elevation_beamwidth_deg is None
+    el = (beamwidths[1] if element.elevation_beamwidth_deg is None
           else math.radians(element.elevation_beamwidth_deg))
     radar_frame = look.antenna_to_body()
     rotation = element_frame(element, look).T @ radar_frame

@@ -291,7 +291,8 @@ class Radar(metaclass=KnownFields):
         with the antenna mounted by ``look``: what the kernels need for
         :func:`mitsar.model.elements.channel_amplitude_factor`."""
         transmitters, receivers = self.channel_elements()
-        return tuple((element_beam(t, self, look), element_beam(r, self, look))
+        widths = (self.azimuth_beamwidth, self.elevation_beamwidth)
+        return tuple((element_beam(t, widths, look), element_beam(r, widths, look))
                      for t, r in zip(transmitters, receivers, strict=True))
 
     def require_shared_beam(self, where: str) -> None:

@@ -525,7 +525,8 @@ def _element_warnings(radar: Radar, look: Look, geometry: SweepGeometry, positio
     for role, elements in roles:
         for element in dict.fromkeys(e for e in elements if e.has_own_beam):
             channels = [k for k, e in enumerate(elements) if e == element]
-            beam = element_beam(element, radar, look)
+            beam = element_beam(element, (radar.azimuth_beamwidth, radar.elevation_beamwidth),
+                                look)
             own = dataclasses.replace(radar, azimuth_beamwidth_deg=math.degrees(
                 beam.beamwidth_az), elevation_beamwidth_deg=math.degrees(beam.beamwidth_el),
                 receivers=None, transmitters=None, ping_pong=False)
