@@ -6,6 +6,10 @@ signal of :mod:`mitsar.model.signal` (paper eqs. 1-2, with the residual video ph
 ``rvp=False``). Amplitudes follow the radar equation with the two-way antenna pattern at
 mid-sweep (within one 4 ms sweep it changes by < 1% at the beam edge, a second-order effect
 since mid-sweep is the centre of the symmetric fast-time interval).
+
+This module plans a simulation (checks, geometry, scatterers, warnings, product) and streams it
+by chunks of sweeps; the amplitudes are :mod:`mitsar.raw.echo_amplitudes`'s and the echo sums
+(NumPy reference and Dr.Jit kernel) :mod:`mitsar.raw.echo_sums`'s.
 """
 
 from __future__ import annotations
@@ -21,25 +25,12 @@ import xarray as xr
 from numpy.typing import NDArray
 from tqdm.auto import tqdm
 
-from mitsar.backend import array_namespace, namespace_of, safe_width, syntax
-from mitsar.backend import drjit as dr  # imported when a kernel runs (LazyModule)
 from mitsar.budget import require_memory
 from mitsar.checks import integer
 from mitsar.checks import seed as check_seed
 from mitsar.errors import MitsarWarning, ParameterError
-from mitsar.model.elements import (
-    ElementBeam,
-    channel_amplitude_factor,
-    element_beam,
-    element_frame,
-)
-from mitsar.model.geometry.antenna import direction_sines, two_way_pattern
-from mitsar.model.geometry.attitude import (
-    Look,
-    antenna_frame,
-    body_offset_to_world,
-    body_to_world,
-)
+from mitsar.model.elements import element_beam, element_frame
+from mitsar.model.geometry.attitude import Look, antenna_frame, body_to_world
 from mitsar.model.geometry.navigation import (
     NavigationErrors,
     describe_navigation,
@@ -50,17 +41,11 @@ from mitsar.model.geometry.trajectory import Trajectory
 from mitsar.model.noise import check_noise, thermal_noise
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
 from mitsar.model.reception import channel_warnings, reception, reception_warnings
-from mitsar.model.signal import (
-    apparent_beat_frequency,
-    bistatic_delay,
-    dechirped_phase_cycles,
-    fast_time,
-    radar_equation_amplitude,
-    sweep_count,
-    two_way_delay,
-)
+from mitsar.model.signal import apparent_beat_frequency, sweep_count
 from mitsar.model.targets import Background, PointTarget
 from mitsar.products.raw import make_raw_product
+from mitsar.raw.echo_amplitudes import channel_amplitudes
+from mitsar.raw.echo_sums import channel_offsets, sum_echoes_drjit, sum_echoes_numpy
 from mitsar.raw.product import require_raw_memory, sweep_geometry
 
 STREAM_KERNEL_LANES = 2**16
@@ -181,17 +166,17 @@ def simulate_point_targets(radar: Radar, trajectory: Trajectory, look: Look,
                  normalized=normalized, pattern=pattern, noise=noise, backend=backend,
                  navigation=navigation)
     sweeps = plan["sweeps"]
-    amplitudes = _channel_amplitudes(radar, look, plan["geometry"], plan["positions"],
-                                     plan["velocities"], plan["reflectivity"](sweeps),
-                                     normalized=normalized, pattern=pattern)
+    amplitudes = channel_amplitudes(radar, look, plan["geometry"], plan["positions"],
+                                    plan["velocities"], plan["reflectivity"](sweeps),
+                                    normalized=normalized, pattern=pattern)
     if not any(np.any(amplitude) for amplitude in amplitudes):
         raise _all_zero_error()
-    sum_echoes = _sum_echoes_drjit if backend == "drjit" else _sum_echoes_numpy
+    sum_echoes = sum_echoes_drjit if backend == "drjit" else sum_echoes_numpy
     channels = [_channel_samples(radar, trajectory, plan, plan["geometry"], amplitudes[channel],
                                  np.arange(sweeps), channel, offsets, sum_echoes, rvp=rvp,
                                  noise=noise, seed=seed, progress=progress,
                                  chunk_elements=chunk_elements)
-                for channel, offsets in enumerate(_channel_offsets(radar))]
+                for channel, offsets in enumerate(channel_offsets(radar))]
     return _product(plan, _stack(radar, channels), slice(0, sweeps), first=True)
 
 
@@ -236,16 +221,16 @@ def stream_point_targets(radar: Radar, trajectory: Trajectory, look: Look,
                  normalized=normalized, pattern=pattern, noise=noise, backend=backend,
                  navigation=navigation, budget_sweeps=sweeps_per_chunk)
     sweeps, geometry = plan["sweeps"], plan["geometry"]
-    sum_echoes = _sum_echoes_drjit if backend == "drjit" else _sum_echoes_numpy
+    sum_echoes = sum_echoes_drjit if backend == "drjit" else sum_echoes_numpy
     any_echo = False
     for start in tqdm(range(0, sweeps, sweeps_per_chunk), disable=not progress,
                       desc="simulate", unit="chunk"):
         part = slice(start, min(start + sweeps_per_chunk, sweeps))
         chunk_geometry = geometry.select(part)
-        amplitudes = _channel_amplitudes(radar, look, chunk_geometry, plan["positions"],
-                                         plan["velocities"],
-                                         plan["reflectivity"](part.stop - start),
-                                         normalized=normalized, pattern=pattern)
+        amplitudes = channel_amplitudes(radar, look, chunk_geometry, plan["positions"],
+                                        plan["velocities"],
+                                        plan["reflectivity"](part.stop - start),
+                                        normalized=normalized, pattern=pattern)
         any_echo = any_echo or any(bool(np.any(amplitude)) for amplitude in amplitudes)
         if start < first_chunk * sweeps_per_chunk:  # done by an interrupted run: draws only
             continue
@@ -253,7 +238,7 @@ def stream_point_targets(radar: Radar, trajectory: Trajectory, look: Look,
                                      np.arange(part.start, part.stop), channel, offsets,
                                      sum_echoes, rvp=rvp, noise=noise, seed=seed,
                                      progress=False, chunk_elements=STREAM_KERNEL_LANES)
-                    for channel, offsets in enumerate(_channel_offsets(radar))]
+                    for channel, offsets in enumerate(channel_offsets(radar))]
         yield _product(plan, _stack(radar, channels), part, first=start == 0)
     if not any_echo:
         raise _all_zero_error()
@@ -293,35 +278,9 @@ def _channel_samples(radar: Radar, trajectory: Trajectory, plan: dict, geometry:
     return samples
 
 
-def _channel_offsets(radar: Radar) -> list[tuple[NDArray, NDArray] | None]:
-    """Body-frame (transmitter, receiver) phase centres [m] of each channel, or ``[None]``
-    for the single monostatic channel of a radar without declared phase centres."""
-    if not radar.has_channels:
-        return [None]
-    transmitters, receivers = radar.channel_offsets()
-    return [(np.asarray(t, dtype=float), np.asarray(r, dtype=float))
-            for t, r in zip(transmitters, receivers, strict=True)]
-
-
 def _stack(radar: Radar, channels: list[NDArray]) -> NDArray:
     """Samples (sweeps, samples) of a single-channel radar, (channels, sweeps, samples) else."""
     return np.stack(channels) if radar.has_channels else channels[0]
-
-
-def _phase_centres(trajectory: Trajectory, absolute_time: NDArray,
-                   offsets: tuple[NDArray, NDArray] | None) -> tuple[NDArray, NDArray | None]:
-    """World positions [m] of the transmitter and, for a bistatic channel, the receiver at
-    each sample time: the track's point plus the body-frame offsets rotated by the attitude at
-    that instant (:func:`mitsar.model.geometry.attitude.body_offset_to_world`); ``None`` for the
-    receiver of a monostatic channel (it is the transmitter)."""
-    platform = trajectory.position(absolute_time)
-    if offsets is None or not (np.any(offsets[0]) or np.any(offsets[1])):
-        return platform, None
-    attitude = np.moveaxis(trajectory.attitude_at(absolute_time), -1, 0)
-    transmitter = platform + body_offset_to_world(offsets[0], *attitude)
-    if np.array_equal(offsets[0], offsets[1]):
-        return transmitter, None
-    return transmitter, platform + body_offset_to_world(offsets[1], *attitude)
 
 
 def _all_zero_error() -> ParameterError:
@@ -545,211 +504,3 @@ def _element_warnings(radar: Radar, look: Look, geometry: SweepGeometry, positio
                     f"pattern/boresight (channels {channels}), {what} (check the element's "
                     "boresight and beamwidths)")
     return messages
-
-
-def _echo_amplitudes(radar: Radar, look: Look, geometry: SweepGeometry, positions: NDArray,
-                     velocities: NDArray, reflectivity: NDArray, *, normalized: bool,
-                     pattern: bool) -> NDArray[np.complex128]:
-    """Complex amplitude of every scatterer in every sweep, shape (sweeps, scatterers).
-
-    sqrt(RCS) reflectivity, times the two-way pattern and the radar equation (per unit RCS) at
-    mid-sweep (paper eq. 2).
-    """
-    offset = positions[None, :, :] + velocities[None, :, :] * (
-        geometry.slow_time[:, None, None] + radar.sweep_duration / 2) \
-        - geometry.position[:, None, :]
-    centre_range = np.linalg.norm(offset, axis=-1)
-    amplitude = reflectivity.astype(complex)
-    if pattern:
-        frames = antenna_frame(look, *geometry.attitude.T)
-        directions = offset / centre_range[..., None]
-        amplitude = amplitude * np.sqrt(two_way_pattern(
-            directions, frames[:, None], radar.azimuth_beamwidth, radar.elevation_beamwidth))
-    if not normalized:
-        amplitude = amplitude * radar_equation_amplitude(radar, 1.0, centre_range)
-    return amplitude
-
-
-def _channel_amplitudes(radar: Radar, look: Look, geometry: SweepGeometry, positions: NDArray,
-                        velocities: NDArray, reflectivity: NDArray, *, normalized: bool,
-                        pattern: bool) -> list[NDArray[np.complex128]]:
-    """Complex amplitude of every scatterer in every sweep for each channel, shape
-    (sweeps, scatterers) each.
-
-    A channel whose two elements are the radar's antenna (no pattern or boresight of their
-    own, :class:`mitsar.model.elements.Element`) shares :func:`_echo_amplitudes` (bit for bit
-    the single-antenna amplitudes). Any other channel (transmitter i, receiver j) gets
-    ``sqrt(RCS) f_i(d) f_j(d) sqrt(P_T G_i G_j lambda^2 / ((4 pi)^3 R^4))``, each element's
-    field pattern in its own frame (:func:`mitsar.model.elements.channel_amplitude_factor`),
-    the direction ``d`` and range ``R`` from the track point at mid-sweep as for the radar's
-    antenna (a centimetre offset turns the direction by ~1e-3 of a beamwidth at 8 m).
-    """
-    shared = _echo_amplitudes(radar, look, geometry, positions, velocities, reflectivity,
-                              normalized=normalized, pattern=pattern)
-    channels = len(_channel_offsets(radar))
-    if not radar.has_element_beams:
-        return [shared] * channels
-    beams = radar.channel_beams(look)
-    own = [not (_is_radar_beam(t, radar) and _is_radar_beam(r, radar)) for t, r in beams]
-    offset = positions[None, :, :] + velocities[None, :, :] * (
-        geometry.slow_time[:, None, None] + radar.sweep_duration / 2) \
-        - geometry.position[:, None, :]
-    centre_range = np.linalg.norm(offset, axis=-1)
-    sines = direction_sines(offset / centre_range[..., None],
-                            antenna_frame(look, *geometry.attitude.T)[:, None])
-    scale = (reflectivity.astype(complex) if normalized else reflectivity.astype(complex)
-             * radar_equation_amplitude(radar, 1.0, centre_range))
-    out = []
-    for (transmit, receive), different in zip(beams, own, strict=True):
-        if not different:
-            out.append(shared)
-            continue
-        gain = None if normalized else radar.antenna_gain
-        if pattern:
-            factor = channel_amplitude_factor(*sines, transmit, receive, gain)
-        else:  # no pattern: the boresight gains only
-            factor = 1.0 if gain is None else np.sqrt(transmit.gain * receive.gain) / gain
-        out.append(scale * factor)
-    return out
-
-
-def _is_radar_beam(beam: ElementBeam, radar: Radar) -> bool:
-    """Whether an element's beam is the radar's antenna along the look's boresight."""
-    return (beam.identity and beam.beamwidth_az == radar.azimuth_beamwidth
-            and beam.beamwidth_el == radar.elevation_beamwidth)
-
-
-def _sample_times(radar: Radar, geometry: SweepGeometry, sweep_slice: slice) -> NDArray:
-    """Absolute time of every sample of the sweeps in ``sweep_slice``, shape (sweeps, N_s)."""
-    return (geometry.slow_time[sweep_slice, None] + radar.sweep_duration / 2
-            + fast_time(radar)[None, :])
-
-
-def _sum_echoes_numpy(radar: Radar, trajectory: Trajectory, geometry: SweepGeometry,
-                      positions: NDArray, velocities: NDArray, amplitude: NDArray, *,
-                      rvp: bool, progress: bool,
-                      chunk_elements: int, offsets: tuple[NDArray, NDArray] | None = None
-                      ) -> NDArray[np.complex128]:
-    """Reference sum of the dechirped echoes, vectorised over (sweep, sample, scatterer).
-
-    ``offsets``: body-frame (transmitter, receiver) phase centres of a channel [m]
-    (:func:`_phase_centres`; exact bistatic delay, :func:`mitsar.model.signal.bistatic_delay`);
-    ``None``: the monostatic antenna at the track. The Python loop runs over memory chunks only.
-    """
-    sweeps = len(geometry.slow_time)
-    times = fast_time(radar)
-    sample_count = len(times)
-    samples = np.zeros((sweeps, sample_count), dtype=complex)
-    sweeps_per_chunk = max(1, min(sweeps, chunk_elements // sample_count))
-    scatterers_per_chunk = max(1, chunk_elements // (sweeps_per_chunk * sample_count))
-    chunks = [(s, m) for s in range(0, sweeps, sweeps_per_chunk)
-              for m in range(0, len(positions), scatterers_per_chunk)]
-    for sweep0, scatterer0 in tqdm(chunks, disable=not progress, desc="simulate", unit="chunk"):
-        sweep_slice = slice(sweep0, sweep0 + sweeps_per_chunk)
-        scatterer_slice = slice(scatterer0, scatterer0 + scatterers_per_chunk)
-        absolute_time = _sample_times(radar, geometry, sweep_slice)
-        platform, receiver = _phase_centres(trajectory, absolute_time, offsets)
-        target = (positions[None, None, scatterer_slice, :]
-                  + velocities[None, None, scatterer_slice, :] * absolute_time[..., None, None])
-        delay = (two_way_delay(platform[:, :, None, :], target) if receiver is None
-                 else bistatic_delay(platform[:, :, None, :], receiver[:, :, None, :], target))
-        cycles = dechirped_phase_cycles(delay, times[None, :, None], radar, rvp=rvp)
-        phasor = np.exp(2j * np.pi * (cycles - np.round(cycles)))
-        samples[sweep_slice] += np.einsum("snm,sm->sn", phasor,
-                                          amplitude[sweep_slice, scatterer_slice])
-    return samples
-
-
-def _sum_echoes_drjit(radar: Radar, trajectory: Trajectory, geometry: SweepGeometry,
-                      positions: NDArray, velocities: NDArray, amplitude: NDArray, *,
-                      rvp: bool, progress: bool,
-                      chunk_elements: int, offsets: tuple[NDArray, NDArray] | None = None
-                      ) -> NDArray[np.complex128]:
-    """Sum of the dechirped echoes as a Dr.Jit kernel: one lane per sample, loop over scatterers.
-
-    Same formulas as :func:`_sum_echoes_numpy` (``mitsar.model.signal``; ``offsets`` as there);
-    geometry and phase in float64, sin/cos of the wrapped phase in float32. Runs on the backend
-    of :func:`mitsar.backend.array_namespace` (LLVM on the CPU or CUDA; docs/gpu.md).
-    """
-    jit = array_namespace()
-    Float64, UInt32 = jit.Float64, jit.UInt32  # Dr.Jit type names
-    sweeps = len(geometry.slow_time)
-    times = fast_time(radar)
-    sample_count = len(times)
-    sweeps_per_chunk = max(1, min(sweeps, chunk_elements // sample_count))
-    scatterers = len(positions)
-    scatterer_arrays = [Float64(np.ascontiguousarray(a)) for a in (*positions.T, *velocities.T)]
-    constants = (dr.opaque(Float64, radar.carrier_frequency), dr.opaque(Float64, radar.chirp_rate),
-                 dr.opaque(Float64, 1.0 if rvp else 0.0), dr.opaque(UInt32, scatterers),
-                 dr.opaque(UInt32, sample_count))
-    samples = np.zeros((sweeps, sample_count), dtype=complex)
-    for sweep0 in tqdm(range(0, sweeps, sweeps_per_chunk), disable=not progress,
-                       desc="simulate", unit="chunk"):
-        sweep_slice = slice(sweep0, sweep0 + sweeps_per_chunk)
-        absolute_time = _sample_times(radar, geometry, sweep_slice)
-        platform, receiver = _phase_centres(trajectory, absolute_time, offsets)
-        platform = platform.reshape(-1, 3)
-        chunk_amplitude = np.ascontiguousarray(amplitude[sweep_slice])
-        width = len(platform)  # lanes, padded past Dr.Jit 1.5's crashing widths (safe_width):
-        pad = safe_width(width) - width  # < 16 lanes, one extra sweep of zero amplitude
-        if pad:
-            chunk_amplitude = np.vstack([chunk_amplitude, np.zeros_like(chunk_amplitude[:1])])
-
-        def lane_array(values: NDArray, pad: int = pad) -> Any:
-            return Float64(np.pad(np.ascontiguousarray(values), (0, pad), mode="edge"))
-
-        lanes = (lane_array(platform[:, 0]), lane_array(platform[:, 1]),
-                 lane_array(platform[:, 2]), lane_array(absolute_time.ravel()),
-                 lane_array(np.tile(times, width // sample_count)))
-        receiver_lanes = (None if receiver is None
-                          else tuple(lane_array(a) for a in receiver.reshape(-1, 3).T))
-        real, imag = _echo_loop(*lanes, *scatterer_arrays, Float64(chunk_amplitude.real.ravel()),
-                                Float64(chunk_amplitude.imag.ravel()), *constants,
-                                receiver_lanes)
-        dr.eval(real, imag)
-        samples[sweep_slice] = (np.asarray(real)[:width]
-                                + 1j * np.asarray(imag)[:width]).reshape(-1, sample_count)
-    return samples
-
-
-def _lane_delay(dx: Any, dy: Any, dz: Any, qx: Any, qy: Any, qz: Any, receiver: tuple | None
-                ) -> Any:
-    """Delay [s] of a lane from its offset to the transmitter (d = p - q): ``2 |d| / c``, or
-    ``(|d| + |r - q|) / c`` with a bistatic receiver at r (:func:`bistatic_delay`)."""
-    outgoing = dr.sqrt(dx * dx + dy * dy + dz * dz)
-    if receiver is None:
-        return (2.0 / SPEED_OF_LIGHT) * outgoing
-    ex, ey, ez = receiver[0] - qx, receiver[1] - qy, receiver[2] - qz
-    return (outgoing + dr.sqrt(ex * ex + ey * ey + ez * ez)) / SPEED_OF_LIGHT
-
-
-@syntax  # drjit.syntax, applied on the first call (mitsar.backend.syntax)
-def _echo_loop(px, py, pz, absolute_time, fast, qx, qy, qz, vx, vy, vz, amp_real,  # noqa: ANN001, ANN202
-               amp_imag, carrier, chirp_rate, rvp, scatterers, sample_count, receiver=None):
-    """Per sample lane: sum over scatterers of a exp{j 2 pi [f_c tau + K tau t - rvp K tau^2/2]}
-    (``receiver``: the lanes' bistatic receiver positions, or None: monostatic). Array types
-    from the inputs' backend (:func:`mitsar.backend.namespace_of`)."""
-    jit = namespace_of(px)
-    Float32, Float64, UInt32 = jit.Float32, jit.Float64, jit.UInt32
-    lane = dr.arange(UInt32, dr.width(px))
-    sweep = lane // sample_count
-    acc_real = dr.zeros(Float64, dr.width(px))
-    acc_imag = dr.zeros(Float64, dr.width(px))
-    m = UInt32(0)
-    while m < scatterers:
-        tx = dr.gather(Float64, qx, m) + dr.gather(Float64, vx, m) * absolute_time
-        ty = dr.gather(Float64, qy, m) + dr.gather(Float64, vy, m) * absolute_time
-        tz = dr.gather(Float64, qz, m) + dr.gather(Float64, vz, m) * absolute_time
-        delay = _lane_delay(px - tx, py - ty, pz - tz, tx, ty, tz, receiver)
-        cycles = (carrier * delay + chirp_rate * delay * fast
-                  - rvp * 0.5 * chirp_rate * delay * delay)
-        # Wrapped to one cycle in float64, then sin/cos in float32 (error < 1e-6 rad).
-        sin_phase, cos_phase = dr.sincos(Float32(2 * dr.pi * (cycles - dr.round(cycles))))
-        sin_phase, cos_phase = Float64(sin_phase), Float64(cos_phase)
-        index = sweep * scatterers + m
-        a_real = dr.gather(Float64, amp_real, index)
-        a_imag = dr.gather(Float64, amp_imag, index)
-        acc_real += a_real * cos_phase - a_imag * sin_phase
-        acc_imag += a_real * sin_phase + a_imag * cos_phase
-        m += 1
-    return acc_real, acc_imag
