@@ -72,11 +72,16 @@ def parse_radar(t: Table) -> Radar:
     tables (``[[radar.receivers]]`` with ``position = [x, y, z]``), and ``ping_pong`` for a
     multi-channel (interferometric) radar."""
     kwargs: dict[str, Any] = {}
+    array = _array(t)
     for f in dataclasses.fields(Radar):
         if not f.init:  # derived (the elements of receivers/transmitters)
             continue
         if f.name in ("receivers", "transmitters"):  # phase centres (docs/interferometry.md)
-            value = _phase_centres(t, f.name)
+            if array is not None and t.has(f.name):
+                raise t.error(f.name, "no receivers/transmitters key with a [radar.array] "
+                              "table (give the phase centres as a uniform array or as a "
+                              "list, not both)", t.data[f.name])
+            value = None if array is not None else _phase_centres(t, f.name)
         elif f.name == "ping_pong":
             value = t.boolean(f.name, False) or None
         elif f.name.endswith("_db"):
@@ -89,7 +94,41 @@ def parse_radar(t: Table) -> Radar:
             kwargs[f.name] = value
     t.finish()
     with prefixed(t):
-        return Radar(**kwargs)
+        return Radar(**kwargs) if array is None else Radar.array(array, **kwargs)
+
+
+def _array(t: Table) -> dict[str, Any] | None:
+    """``[radar.array]``: a uniform transmit/receive array
+    (:class:`mitsar.model.arrays.UniformArray`'s fields, docs/experiments.md); None when
+    absent."""
+    a = t.table("array")
+    if a is None:
+        return None
+    fields: dict[str, Any] = {"receivers": a.integer("receivers", ge=1),
+                              "transmitters": a.integer("transmitters", None, ge=1)}
+    for name in ("spacing", "transmitter_spacing"):
+        fields[name] = a.number(name, None, unit="m", gt=0)
+        fields[f"{name}_wavelengths"] = a.number(f"{name}_wavelengths", None, gt=0)
+    for name in ("axis", "transmitter_axis"):
+        fields[name] = a.vector(name, 3, None, unit="body frame")
+    for name in ("origin", "transmitter_origin"):
+        fields[name] = a.vector(name, 3, None, unit="m, body frame")
+    for name in ("receiver_beam", "transmitter_beam"):
+        beam = a.table(name)
+        if beam is not None:
+            fields[name] = _beam_fields(beam)
+            beam.finish()
+    a.finish()
+    return {k: v for k, v in fields.items() if v is not None}
+
+
+def _beam_fields(t: Table) -> dict[str, Any]:
+    """An element's own pattern and boresight (:data:`mitsar.model.elements.BEAM_FIELDS`)."""
+    fields: dict[str, Any] = {"boresight": t.vector("boresight", 3, None, unit="body frame")}
+    for key in ("azimuth_beamwidth_deg", "elevation_beamwidth_deg", "off_nadir_deg",
+                "squint_deg"):
+        fields[key] = t.number(key, None, unit="deg")
+    return {k: v for k, v in fields.items() if v is not None}
 
 
 def _phase_centres(t: Table, name: str) -> list[tuple[float, ...]] | None:
@@ -101,12 +140,9 @@ def _phase_centres(t: Table, name: str) -> list[tuple[float, ...]] | None:
         centres = []
         for element in t.tables(name):  # an Element: position, own beam (mitsar.model.elements)
             fields = {"position": element.vector("position", 3, unit="m, body frame"),
-                      "boresight": element.vector("boresight", 3, None, unit="body frame")}
-            for key in ("azimuth_beamwidth_deg", "elevation_beamwidth_deg", "off_nadir_deg",
-                        "squint_deg"):
-                fields[key] = element.number(key, None, unit="deg")
+                      **_beam_fields(element)}
             element.finish()
-            centres.append({k: v for k, v in fields.items() if v is not None})
+            centres.append(fields)
         return centres
     return t.vectors(name, 3, default=None, unit="m, body frame")
 

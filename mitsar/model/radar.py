@@ -17,6 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from mitsar.checks import KnownFields, check_units, finite, is_real, positive
 from mitsar.errors import ParameterError
+from mitsar.model.arrays import UniformArray
 from mitsar.model.elements import MAX_OFFSET, Element, ElementBeam, element_beam
 
 if TYPE_CHECKING:
@@ -201,6 +202,40 @@ class Radar(metaclass=KnownFields):
                                  f"(transmitters x receivers, TDM-MIMO): {len(self.transmitters)}"
                                  f" x {len(self.receivers or ((0, 0, 0),))} = "
                                  f"{self.channel_count}", len(self.transmitters))
+
+    @classmethod
+    def array(cls, array: UniformArray | dict[str, Any], **fields: Any) -> Radar:
+        """A radar whose phase centres are a uniform array (``[radar.array]``).
+
+        ``array`` (a :class:`~mitsar.model.arrays.UniformArray` or a dict of its fields)
+        expands to the :class:`~mitsar.model.elements.Element` records of ``receivers`` and
+        ``transmitters`` at this radar's wavelength; ``fields`` are the other
+        :class:`Radar` fields (not ``receivers``/``transmitters``: one form or the other).
+        Errors of the array name ``array.<field>``.
+
+        Examples
+        --------
+        >>> radar = Radar.array({"receivers": 4, "transmitters": 3})   # TI-style 3 TX x 4 RX
+        >>> radar.channel_count, round(radar.receivers[1][2] / radar.wavelength, 6)
+        (12, 0.5)
+        """
+        for name in ("receivers", "transmitters"):
+            if name in fields:
+                raise ParameterError("Radar", name, "None with array= (give the phase centres "
+                                     "as a uniform array or as a list, not both)", fields[name])
+        radar = cls(**fields)
+        try:
+            transmitters, receivers = UniformArray.of(array).elements(radar.wavelength)
+        except ParameterError as error:
+            name = error.name if error.name == "array" else f"array.{error.name}"
+            raise ParameterError("Radar", name, error.expected, error.found) from None
+        try:
+            return dataclasses.replace(radar, receivers=receivers, transmitters=transmitters)
+        except ParameterError as error:  # the channel count, ping_pong with transmitters
+            if error.name.split("[")[0].split(".")[0] not in ("receivers", "transmitters"):
+                raise
+            raise ParameterError("Radar", f"array.{error.name}", error.expected,
+                                 error.found) from None
 
     # --- channels ---------------------------------------------------------------------------
     @property
