@@ -6,8 +6,9 @@ For every pixel x and sweep (or pulse) k with two-way delay ``tau`` (and delay r
 1. the echo of x sits in the range profile at the beat frequency ``f = K tau + f_c dtau/dt``
    (:func:`mitsar.model.signal.beat_frequency`; Meta 2007 §II-B): the Doppler term removes the
    FMCW range shift of continuous motion;
-2. the profile, on its ascending uniform beat-frequency axis, is interpolated linearly there
-   (:func:`profile_position`, :func:`interpolate`);
+2. the profile, on its ascending uniform beat-frequency axis, is interpolated there
+   (:func:`profile_position`; :mod:`mitsar.focus.interpolation`: 4-tap Lagrange cubic by
+   default, or linear);
 3. the value is de-rotated by ``exp(-j 2 pi f_c tau)``, the carrier phase the sweep-centred
    range FFT leaves (paper eq. 1; :func:`carrier_turns`, :func:`derotate`);
 4. it is weighted by the azimuth window at the sweep's window offset g (direction sine less
@@ -41,6 +42,14 @@ from numpy.typing import NDArray
 from mitsar.backend import array_namespace, namespace_of, safe_width
 from mitsar.backend import drjit as dr  # imported when a kernel runs (LazyModule)
 from mitsar.focus.aperture import aperture_half_width, doppler_geometry, median_sweep_interval
+from mitsar.focus.interpolation import (
+    DEFAULT_INTERPOLATION,
+    coefficient_table,
+    horner,
+    kernel_packets,
+    lookup,
+    numpy_fma,
+)
 from mitsar.focus.windows import cosine_series, evaluate_window
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
 from mitsar.model.signal import beat_frequency, half_path
@@ -84,7 +93,8 @@ def profile_position(beat: Any, first_frequency: Any, frequency_step: Any,
 
 
 def interpolate(low: Any, high: Any, fraction: Any) -> Any:
-    """Linear interpolation between two neighbouring profile values."""
+    """Linear interpolation between two neighbouring values (FFBP's weight images; the range
+    profiles go through :mod:`mitsar.focus.interpolation`)."""
     return low * (1 - fraction) + high * fraction
 
 
@@ -155,7 +165,8 @@ def fractional_edges(radar: Radar, half_width: float) -> bool:
 
 
 def pulse_sum(profile: NDArray, frequency: NDArray, delay: NDArray, beat: NDArray,
-              weight: NDArray, carrier_frequency: float, periodic: bool = False
+              weight: NDArray, carrier_frequency: float, periodic: bool = False,
+              interpolation: str = DEFAULT_INTERPOLATION, table: NDArray | None = None
               ) -> tuple[NDArray, NDArray]:
     """Weighted sum over sweeps of the de-rotated profile values (NumPy, steps 2-4).
 
@@ -172,6 +183,10 @@ def pulse_sum(profile: NDArray, frequency: NDArray, delay: NDArray, beat: NDArra
     periodic : bool
         The profile is periodic in beat frequency (a DFT, not zero-padded beyond the band):
         positions wrap around; otherwise positions off the axis get weight 0.
+    interpolation : {"cubic", "linear"}
+        Interpolation of the profile (:mod:`mitsar.focus.interpolation`).
+    table : ndarray, shape (S, F, terms), optional
+        The profile's :func:`mitsar.focus.interpolation.coefficient_table` if already made.
 
     Returns
     -------
@@ -183,14 +198,14 @@ def pulse_sum(profile: NDArray, frequency: NDArray, delay: NDArray, beat: NDArra
                                        np.floor)
     lower = lower.astype(np.int64)
     if periodic:
-        upper = (lower + 1) % bins
         lower %= bins
     else:
         weight = np.where((lower >= 0) & (lower < bins - 1), weight, 0.0)
         lower = np.clip(lower, 0, bins - 2)
-        upper = lower + 1
+    if table is None:
+        table = coefficient_table(profile, interpolation, periodic)
     rows = np.arange(profile.shape[0])[:, None]
-    value = interpolate(profile[rows, lower], profile[rows, upper], fraction)
+    value = horner(tuple(np.moveaxis(table[rows, lower], -1, 0)), fraction, numpy_fma)
     phase = 2 * np.pi * carrier_turns(delay, carrier_frequency, np.floor)
     real, imag = derotate(value.real, value.imag, np.sin(phase), np.cos(phase))
     weight = np.broadcast_to(weight, real.shape)
@@ -205,7 +220,8 @@ def backproject_numpy(profile: NDArray, frequency: NDArray, radar: Radar, pixels
                       half_width: float, window: NDArray,
                       motion_correction: bool = True,
                       aspect: tuple[NDArray, NDArray] | None = None,
-                      receivers: NDArray | None = None) -> tuple[NDArray, NDArray]:
+                      receivers: NDArray | None = None,
+                      interpolation: str = DEFAULT_INTERPOLATION) -> tuple[NDArray, NDArray]:
     """Reference back-projection in NumPy (same sum as the Dr.Jit kernel, all in memory).
 
     Parameters
@@ -233,6 +249,8 @@ def backproject_numpy(profile: NDArray, frequency: NDArray, radar: Radar, pixels
         (:func:`mitsar.model.signal.bistatic_delay`), looked up as a "range" of half the path
         (:func:`half_path`); direction sine and delay rate stay the transmitter's (a receiver
         centimetres away changes them by ~1e-5).
+    interpolation : {"cubic", "linear"}
+        Interpolation of the profiles (:mod:`mitsar.focus.interpolation`).
 
     Returns
     -------
@@ -264,7 +282,8 @@ def backproject_numpy(profile: NDArray, frequency: NDArray, radar: Radar, pixels
                 else (np.abs(offset) <= half_width).astype(float))
     inside = np.clip(offset, -half_width, half_width) / (2 * half_width) + 0.5
     weight = np.where(fraction > 0, evaluate_window(window, inside) * fraction, 0.0)
-    return pulse_sum(profile, frequency, delay, beat, weight, radar.carrier_frequency)
+    return pulse_sum(profile, frequency, delay, beat, weight, radar.carrier_frequency,
+                     interpolation=interpolation)
 
 
 def _kernel_inputs(pixels: NDArray, sweeps: int, velocities: NDArray, window: NDArray,
@@ -286,7 +305,8 @@ def backproject_drjit(profile: NDArray, frequency: NDArray, radar: Radar, pixels
                       half_width: float, window: NDArray, motion_correction: bool = True,
                       sweep_range: tuple[NDArray, NDArray] | None = None,
                       aspect: tuple[NDArray, NDArray] | None = None,
-                      receivers: NDArray | None = None
+                      receivers: NDArray | None = None,
+                      interpolation: str = DEFAULT_INTERPOLATION
                       ) -> tuple[NDArray, NDArray]:
     """Back-projection as one Dr.Jit kernel (parameters as :func:`backproject_numpy`).
 
@@ -314,7 +334,8 @@ def backproject_drjit(profile: NDArray, frequency: NDArray, radar: Radar, pixels
     lanes = len(groups)
     constants, sweep_arrays, pairs = kernel_tables(profile, frequency, radar, positions,
                                                    velocities, centroid_sine, half_width,
-                                                   window, motion_correction, receivers)
+                                                   window, motion_correction, receivers,
+                                                   interpolation)
     index = groups.ravel()
     count = len(pixels)
     natural = bool(np.array_equal(index[:count], np.arange(count)))
@@ -360,7 +381,8 @@ def backproject_drjit(profile: NDArray, frequency: NDArray, radar: Radar, pixels
 def kernel_tables(profile: NDArray, frequency: NDArray, radar: Radar, positions: NDArray,
                   velocities: NDArray, centroid_sine: NDArray, half_width: float,
                   window: NDArray, motion_correction: bool = True,
-                  receivers: NDArray | None = None) -> tuple[dict, list, Any]:
+                  receivers: NDArray | None = None,
+                  interpolation: str = DEFAULT_INTERPOLATION) -> tuple[dict, list, Any]:
     """Constants, per-sweep geometry and packed profiles that :func:`pixel_pulse` reads.
 
     Parameters as :func:`backproject_numpy`. Returns the kernel constants (opaque scalars:
@@ -369,11 +391,12 @@ def kernel_tables(profile: NDArray, frequency: NDArray, radar: Radar, positions:
     (:func:`mitsar.focus.aperture.median_sweep_interval`) for the edge fractions, and
     whether they apply, :func:`fractional_edges`), the sweep arrays (position float64; unit
     direction, speed and centroid sine float32; a bistatic channel's receiver position
-    float64) and the profiles as one 64-bit (real, imag) float32 word per bin, all on the
-    backend of :func:`mitsar.backend.array_namespace`.
+    float64) and the profiles as packets of interpolation coefficients, float32
+    (:func:`mitsar.focus.interpolation.kernel_packets`; ``constants["interpolation"]`` names
+    the kind), all on the backend of :func:`mitsar.backend.array_namespace`.
     """
     jit = array_namespace()
-    Float32, Float64, UInt32, UInt64 = jit.Float32, jit.Float64, jit.UInt32, jit.UInt64
+    Float32, Float64, UInt32 = jit.Float32, jit.Float64, jit.UInt32
     sweeps, bins = profile.shape
     _, speed, direction, coefficients = _kernel_inputs(positions[:0], sweeps, velocities,
                                                        window, None)
@@ -390,16 +413,16 @@ def kernel_tables(profile: NDArray, frequency: NDArray, radar: Radar, positions:
         "half_width": dr.opaque(Float32, half_width),
         "sweep_interval": dr.opaque(Float32, median_sweep_interval(positions, velocities)),
         "fractional_edges": fractional_edges(radar, half_width),
-        "coefficients": [float(c) for c in coefficients]}
+        "coefficients": [float(c) for c in coefficients],
+        "interpolation": interpolation}
     sweep_arrays = ([jit_array(Float64, positions[:, i], np.float64) for i in range(3)]
                     + [jit_array(Float32, a, np.float32) for a in (
                         direction[:, 0], direction[:, 1], direction[:, 2], speed,
                         centroid_sine)]
                     + ([] if receivers is None else
                        [jit_array(Float64, receivers[:, i], np.float64) for i in range(3)]))
-    # Profiles are read at random: (real, imag) float32 pairs, one 64-bit word per bin.
-    pairs = jit_array(UInt64, np.ascontiguousarray(profile, dtype=np.complex64)
-                      .view(np.uint64).ravel(), np.uint64)
+    # Profiles are read at random: one packet of coefficients per lookup.
+    pairs = jit_array(Float32, kernel_packets(profile, interpolation), np.float32)
     return constants, sweep_arrays, pairs
 
 
@@ -449,7 +472,7 @@ def pixel_pulse(k: Any, pixel: tuple, sweep: tuple, pairs: Any, constants: dict
     de-rotation and the window in float32. Array types from ``k``'s backend.
     """
     jit = namespace_of(k)
-    Float32, Int32, UInt32, UInt64 = jit.Float32, jit.Int32, jit.UInt32, jit.UInt64
+    Float32, Int32, UInt32 = jit.Float32, jit.Int32, jit.UInt32
     x, y, z, first, end = pixel[:5]
     gx, gy, gz, ux, uy, uz, speed, centroid = sweep[:8]
     bins, half_width = constants["bins"], constants["half_width"]
@@ -482,12 +505,7 @@ def pixel_pulse(k: Any, pixel: tuple, sweep: tuple, pairs: Any, constants: dict
     active = ((k >= first) & (k < end) & (bin_index >= 0) & (bin_index < Int32(bins - 1))
               & (part > 0))
     flat = k * bins + UInt32(dr.select(active, bin_index, 0))
-    low = dr.gather(UInt64, pairs, flat, active)
-    high = dr.gather(UInt64, pairs, flat + 1, active)
-    v_real = interpolate(dr.reinterpret_array(Float32, UInt32(low)),
-                         dr.reinterpret_array(Float32, UInt32(high)), fraction)
-    v_imag = interpolate(dr.reinterpret_array(Float32, UInt32(low >> 32)),
-                         dr.reinterpret_array(Float32, UInt32(high >> 32)), fraction)
+    v_real, v_imag = lookup(pairs, flat, fraction, active, constants["interpolation"])
     # Carrier phase wrapped to one turn in float64, sin/cos in float32 (error < 1e-6 rad).
     turns = carrier_turns(slant_range, constants["carrier_scale"], dr.floor)
     sin_phase, cos_phase = dr.sincos(Float32(2 * math.pi) * Float32(turns))
@@ -527,11 +545,13 @@ def pulse_loop(lane_pixels: list, first: Any, end: Any, sweep_arrays: list, pair
 def backproject_referenced(profile: NDArray, frequency: NDArray, radar: Radar, pixels: NDArray,
                            positions: NDArray, reference_range: NDArray,
                            sweep_weight: NDArray | None = None, chunk: int = 1 << 22,
+                           interpolation: str = DEFAULT_INTERPOLATION
                            ) -> tuple[NDArray, float]:
     """Back-projection of range profiles referenced to ``reference_range`` (NumPy, chunked).
 
     Pixel x, row k: ``dR = |x - p_k| - R_ref,k`` and ``tau = 2 dR / c``; the profile is
-    interpolated (linearly, on its zero-padded axis) at the beat frequency ``K tau``, wrapped
+    interpolated (``interpolation``, :mod:`mitsar.focus.interpolation`, on its zero-padded
+    axis) at the beat frequency ``K tau``, wrapped
     into the unambiguous band, and de-rotated by ``exp(-j 2 pi f_c tau)`` (:func:`pulse_sum`).
 
     Parameters
@@ -548,6 +568,8 @@ def backproject_referenced(profile: NDArray, frequency: NDArray, radar: Radar, p
         Azimuth weight of every row (window over the aperture); ones by default.
     chunk : int
         Bound on pixels x rows evaluated at once.
+    interpolation : {"cubic", "linear"}
+        Interpolation of the profiles.
 
     Returns
     -------
@@ -558,11 +580,13 @@ def backproject_referenced(profile: NDArray, frequency: NDArray, radar: Radar, p
     weight = np.ones(sweeps) if sweep_weight is None else np.asarray(sweep_weight, float)
     out = np.zeros(len(pixels), dtype=complex)
     per = max(1, chunk // sweeps)
+    table = coefficient_table(profile, interpolation, periodic=True)
     for start in range(0, len(pixels), per):
         block = pixels[start:start + per]
         distance = np.linalg.norm(block[None, :, :] - positions[:, None, :], axis=-1)
         delay = 2.0 * (distance - reference_range[:, None]) / SPEED_OF_LIGHT
         beat = beat_frequency(delay, 0.0, radar.chirp_rate, radar.carrier_frequency)
         out[start:start + per] = pulse_sum(profile, frequency, delay, beat, weight[:, None],
-                                           radar.carrier_frequency, periodic=True)[0]
+                                           radar.carrier_frequency, periodic=True,
+                                           table=table)[0]
     return out, float(weight.sum())

@@ -1,7 +1,8 @@
 """Exact back-projection by groups of neighbouring pixels: float64 once per group and sweep.
 
 The sum is that of :mod:`mitsar.focus.backprojection` (beat frequency ``K tau + f_c dtau/dt``,
-Meta 2007 §II-B; linear interpolation of the zero-padded range profile; de-rotation by
+Meta 2007 §II-B; interpolation of the zero-padded range profile,
+:mod:`mitsar.focus.interpolation`; de-rotation by
 ``exp(-j 2 pi f_c tau)``, paper eq. 1; window on the direction sine), evaluated differently:
 
 1. the pixels are cut into *lanes* of ``G`` neighbours (a row segment of a grid, or ``G``
@@ -34,9 +35,10 @@ Meta 2007 §II-B; linear interpolation of the zero-padded range profile; de-rota
    (:func:`mitsar.focus.backprojection.edge_fraction`), ``R / (|v| T (1 - s^2))``, to first
    order in m: ``R`` grows by ``m A . u`` and ``s`` by ``m (beta - s_c alpha)``;
 4. the lookup position is the centre's fraction plus ``delta`` times bins per metre plus the
-   Doppler shift, the phase the centre's wrapped turns plus ``2 f_c delta / c``; one 16-byte
-   packet per lookup holds the bin's value and the difference to the next (complex64), and
-   sin/cos of the phase come from polynomials of the half angle (:func:`sincos_half_turns`,
+   Doppler shift, the phase the centre's wrapped turns plus ``2 f_c delta / c``; one 32-byte
+   (cubic) or 16-byte (linear) packet per lookup holds the bin's interpolation coefficients
+   (complex64, :func:`mitsar.focus.interpolation.kernel_packets`), and sin/cos of
+   the phase come from polynomials of the half angle (:func:`sincos_half_turns`,
    error 1.2e-6).
 
 A lane is used only where the phase error of (1), ``4 pi f_max / c * h^4 / (2 r^3)``, stays
@@ -45,9 +47,10 @@ lanes pass, and lanes that fail even at the smallest size go to the exact kernel
 (:func:`mitsar.focus.backprojection.backproject_drjit`, float64 range per pixel). Error budget
 (docs/focusing.md, "Exact BPA by pixel groups"): expansion <= 1e-4 rad of phase per term,
 float32 offsets and phase ~1e-5 rad, sin/cos ~1e-6, float32 sums as the exact kernel:
--100 to -130 dB against the float64 sum of the same profiles. The linear interpolation of
-the profiles dominates the error against an interpolation-free float64 sum (-52 dB at 16x
-zero-padding, -61 to -64 dB at 32x), as in the exact kernel.
+-100 to -130 dB against the float64 sum of the same profiles. The interpolation of the
+profiles dominates the error against an interpolation-free float64 sum, as in the exact kernel
+(cubic: about -71 dB at 8x zero-padding, focus()'s default; linear: -48 dB at 16x, -61 dB at
+32x; docs/focusing.md, error budget).
 """
 
 from __future__ import annotations
@@ -70,6 +73,7 @@ from mitsar.focus.backprojection import (
     kernel_tables,
     profile_position,
 )
+from mitsar.focus.interpolation import DEFAULT_INTERPOLATION, kernel_packets, lookup
 from mitsar.focus.windows import cosine_series
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
 
@@ -229,12 +233,15 @@ def backproject_tiled(profile: NDArray, frequency: NDArray, radar: Radar, pixels
                       half_width: float, window: NDArray, motion_correction: bool = True,
                       sweep_range: tuple[NDArray, NDArray] | None = None,
                       aspect: tuple[NDArray, NDArray] | None = None,
-                      row_length: int | None = None) -> tuple[NDArray, NDArray, dict]:
+                      row_length: int | None = None,
+                      interpolation: str = DEFAULT_INTERPOLATION
+                      ) -> tuple[NDArray, NDArray, dict]:
     """Back-projection by lanes of neighbouring pixels (module docstring).
 
     Parameters as :func:`mitsar.focus.backprojection.backproject_drjit` (monostatic only),
     plus ``row_length``: pixels per row of the grid the pixels come from in row-major order
-    (the lanes follow rows), None for points in no particular layout.
+    (the lanes follow rows), None for points in no particular layout, and ``interpolation``
+    of the profiles (:mod:`mitsar.focus.interpolation`).
 
     Returns
     -------
@@ -269,7 +276,8 @@ def backproject_tiled(profile: NDArray, frequency: NDArray, radar: Radar, pixels
     if not good.any():  # no lane qualifies: the exact kernel for all
         values, totals = backproject_drjit(profile, frequency, radar, pixels, positions,
                                            velocities, centroid_sine, half_width, window,
-                                           motion_correction, sweep_range, aspect)
+                                           motion_correction, sweep_range, aspect,
+                                           interpolation=interpolation)
         return values, totals, info
     weighted_sum = np.zeros(count, dtype=complex)
     total = np.zeros(count)
@@ -290,7 +298,7 @@ def backproject_tiled(profile: NDArray, frequency: NDArray, radar: Radar, pixels
                               offsets[good][order] if step is None else step, lane_first[order],
                               lane_end[order], frames, positions, velocities, centroid_sine,
                               half_width, window, motion_correction, checked,
-                              groups.shape[1])
+                              groups.shape[1], interpolation)
     keep = valid.ravel()
     weighted_sum[lanes.ravel()[keep]] = sums.ravel()[keep]
     total[lanes.ravel()[keep]] = totals.ravel()[keep]
@@ -300,7 +308,8 @@ def backproject_tiled(profile: NDArray, frequency: NDArray, radar: Radar, pixels
         values, totals_rest = backproject_drjit(
             profile, frequency, radar, pixels[rest], positions, velocities, centroid_sine,
             half_width, window, motion_correction, (first[rest], end[rest]),
-            None if aspect is None else (aspect[0][rest], aspect[1][rest]))
+            None if aspect is None else (aspect[0][rest], aspect[1][rest]),
+            interpolation=interpolation)
         weighted_sum[rest], total[rest] = values, totals_rest
     return weighted_sum, total, {
         "lane_pixels": int(groups.shape[1]), "exact_pixels": int(len(rest)),
@@ -321,7 +330,8 @@ def _run_lanes(profile: NDArray, frequency: NDArray, radar: Radar, centre: NDArr
                offsets: NDArray, lane_first: NDArray, lane_end: NDArray,
                frames: NDArray | None, positions: NDArray, velocities: NDArray,
                centroid_sine: NDArray, half_width: float, window: NDArray,
-               motion_correction: bool, checked: bool, size: int) -> tuple[NDArray, NDArray]:
+               motion_correction: bool, checked: bool, size: int,
+               interpolation: str = DEFAULT_INTERPOLATION) -> tuple[NDArray, NDArray]:
     """The Dr.Jit kernel over lanes: sums (L, G) complex and weight totals (L, G).
 
     ``offsets``: (L, G, 3) pixel offsets, or the row step (3,) of regular lanes. A lane's
@@ -335,14 +345,11 @@ def _run_lanes(profile: NDArray, frequency: NDArray, radar: Radar, centre: NDArr
     regular = offsets.ndim == 1
     constants, sweep_arrays, _ = kernel_tables(profile[:, :2], frequency[:2], radar, positions,
                                                velocities, centroid_sine, half_width,
-                                               window, motion_correction)
+                                               window, motion_correction,
+                                               interpolation=interpolation)
     constants["bins"] = dr.opaque(UInt32, profile.shape[1])
-    # (value, next value - value) per bin as four float32: one 128-bit packet per lookup
-    packets = np.empty((*profile.shape, 2), dtype=np.complex64)
-    packets[..., 0] = profile
-    np.subtract(packets[:, 1:, 0], packets[:, :-1, 0], out=packets[:, :-1, 1])
-    packets[:, -1, 1] = 0
-    pairs = jit_array(Float32, packets.view(np.float32).ravel(), np.float32)
+    # the interpolation coefficients of every bin: one packet (16 or 32 bytes) per lookup
+    pairs = jit_array(Float32, kernel_packets(profile, interpolation), np.float32)
     sweeps = len(positions)
     span = -(-sweeps // SWEEP_PARTS)          # a part: sweeps [j span, (j + 1) span)
     first_part = lane_first // span
@@ -514,8 +521,8 @@ def lane_loop(lane: dict, first: Any, end: Any, sweep_arrays: list, pairs: Any,
     def _accumulate(shift: Any, frac: Any, phase: Any, offset: Any, inverse_step: Any,
                     start: Any, sums: tuple) -> list:
         """Steps 2-4 of :mod:`mitsar.focus.backprojection` for one pixel: window and edge
-        fraction, lookup, linear interpolation, de-rotation, weighted sums (real, imaginary,
-        weight)."""
+        fraction, lookup and interpolation (:func:`mitsar.focus.interpolation.lookup`),
+        de-rotation, weighted sums (real, imaginary, weight)."""
         if inverse_step is None:  # the whole beam: the cut |g| <= h (fractional_edges)
             active = dr.abs(offset) <= half_width
         else:
@@ -526,9 +533,7 @@ def lane_loop(lane: dict, first: Any, end: Any, sweep_arrays: list, pairs: Any,
             local = flat - start_row[0]
             active &= (local >= 0) & (local < last_bin)
             flat = dr.select(active, flat, 0)
-        taps = dr.gather(jit.Array4f, pairs, UInt32(flat), active)
-        v_real = dr.fma(taps[2], frac, taps[0])   # value + fraction x difference
-        v_imag = dr.fma(taps[3], frac, taps[1])
+        v_real, v_imag = lookup(pairs, flat, frac, active, constants["interpolation"])
         # phase in half turns (the coefficients carry the 1/2), wrapped to [-1/4, 1/4]
         sin_phase, cos_phase = sincos_half_turns(dr.fma(dr.round(phase + phase), -0.5,
                                                         phase))

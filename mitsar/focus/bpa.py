@@ -9,12 +9,15 @@ Steps of :func:`focus_bpa`:
    otherwise, where each sweep is weighted by the window at the *pixel's* direction sine (the
    point response then carries a quadratic phase ``2 pi d^2 / (lambda R)`` in the azimuth offset
    d, so the image must be sampled finely);
-2. range-compress the sweeps on a 16x zero-padded, sweep-centred FFT
+2. range-compress the sweeps on a zero-padded (``range_upsample``, 8x by default),
+   sweep-centred FFT
    (:func:`mitsar.focus.compression.range_spectrum`; paper eq. 1) and keep the bins the pixels
    can be looked up in (:func:`crop_to_pixels`);
 3. back-project (:mod:`mitsar.focus.backprojection`: the profile is read at the beat frequency
    ``K tau + f_c dtau/dt`` of every pixel, Meta 2007 §II-B, and de-rotated by
-   ``exp(-j 2 pi f_c tau)``), in pixel chunks, with the Dr.Jit kernel limited per pixel to the
+   ``exp(-j 2 pi f_c tau)``; the profile interpolated by ``range_interpolation``,
+   :mod:`mitsar.focus.interpolation`: 4-tap Lagrange cubic by default), in pixel chunks,
+   with the Dr.Jit kernel limited per pixel to the
    sweeps of its aperture (straight tracks: :func:`mitsar.focus.aperture.sweep_window`; any
    other track: :func:`curved_sweep_range`, a bound from a coarse search), or with the NumPy
    reference;
@@ -42,6 +45,7 @@ from mitsar.focus.backprojection import backproject_drjit, backproject_numpy
 from mitsar.focus.bp_setup import aperture_weights, beat_band, normalise, prepare
 from mitsar.focus.bp_tiled import backproject_tiled
 from mitsar.focus.grid import track_frame
+from mitsar.focus.interpolation import DEFAULT_INTERPOLATION, check_interpolation
 from mitsar.model.radar import Radar
 
 __all__ = ["crop_to_pixels", "curved_sweep_range", "focus_bpa"]
@@ -69,7 +73,8 @@ def _rows(pair: tuple[NDArray, NDArray] | None, rows: slice) -> tuple[NDArray, N
 def focus_bpa(raw: xr.Dataset, pixels: NDArray, *, half_width: float, window: str,
               range_window: str, remove_rvp: bool, motion_correction: bool, backend: str,
               range_upsample: int, pixel_chunk: int, band_selection: str | None = None,
-              progress: bool = False, row_length: int | None = None
+              progress: bool = False, row_length: int | None = None,
+              range_interpolation: str = DEFAULT_INTERPOLATION
               ) -> tuple[NDArray, NDArray, dict]:
     """Back-project a raw product onto pixels (see the module docstring).
 
@@ -90,14 +95,18 @@ def focus_bpa(raw: xr.Dataset, pixels: NDArray, *, half_width: float, window: st
         Pixels per row when ``pixels`` are a grid in row-major order (its fastest dim): the
         Dr.Jit sum then runs by row segments (:func:`mitsar.focus.bp_tiled.backproject_tiled`,
         float64 once per segment and sweep); None: groups of consecutive points.
+    range_interpolation : {"cubic", "linear"}
+        Interpolation of the range profiles (:mod:`mitsar.focus.interpolation`).
 
     Returns
     -------
     values : ndarray, shape (P,), complex
     coverage : ndarray, shape (P,)
     extra : dict
-        Processing attributes for the image product.
+        Processing attributes for the image product (band selection, kernel,
+        ``range_upsample`` and ``range_interpolation``).
     """
+    check_interpolation("focus", range_interpolation)
     # 1.-2. band selection and range compression, cropped to the pixels
     bp = prepare(raw, half_width=half_width, window=window, range_window=range_window,
                  remove_rvp=remove_rvp, range_upsample=range_upsample,
@@ -119,11 +128,12 @@ def focus_bpa(raw: xr.Dataset, pixels: NDArray, *, half_width: float, window: st
     # (aperture.aspect_frames); the whole beam keeps every sweep that sees the pixel
     aspect = None
     kernel = {"bp_kernel": "numpy" if backend == "numpy" else "exact"}
+    how = {"interpolation": range_interpolation}
     if bp.band_selection == "pixel" and not bp.straight and half_width < bp.beam_half_width:
         aspect = aspect_frames(pixels, positions, bp.velocities, bp.centroid)
     if backend == "numpy":
         results = [backproject_numpy(*arguments, pixels[c], *common, aspect=_rows(aspect, c),
-                                     receivers=bp.receivers)
+                                     receivers=bp.receivers, **how)
                    for c in chunks]
     else:
         if bp.straight:
@@ -138,7 +148,7 @@ def focus_bpa(raw: xr.Dataset, pixels: NDArray, *, half_width: float, window: st
         if bp.receivers is None and backend_name() != "cuda":
             tiled = [backproject_tiled(*arguments, pixels[c], *common,
                                        sweep_range=_rows(ranges, c), aspect=_rows(aspect, c),
-                                       row_length=row_length)
+                                       row_length=row_length, **how)
                      for c in chunks]
             results = [t[:2] for t in tiled]
             exact = sum(t[2]["exact_pixels"] for t in tiled)
@@ -147,14 +157,16 @@ def focus_bpa(raw: xr.Dataset, pixels: NDArray, *, half_width: float, window: st
         else:  # the exact kernel: a GPU, or a bistatic channel (half its path per pixel)
             results = [backproject_drjit(*arguments, pixels[c], *common,
                                          sweep_range=_rows(ranges, c), aspect=_rows(aspect, c),
-                                         receivers=bp.receivers)
+                                         receivers=bp.receivers, **how)
                        for c in chunks]
     # 4. normalisation by the full-aperture weight
     sums, totals = zip(*results, strict=True)
     values, coverage = normalise(bp, raw, pixels, np.concatenate(sums), np.concatenate(totals),
                                  half_width, aperture_weights(bp, raw, pixels, half_width,
                                                               coordinates))
-    return values, coverage, {"band_selection": bp.band_selection, **kernel}
+    return values, coverage, {"band_selection": bp.band_selection, **kernel,
+                              "range_upsample": int(range_upsample),
+                              "range_interpolation": range_interpolation}
 
 
 def curved_sweep_range(pixels: NDArray, positions: NDArray, velocities: NDArray,

@@ -106,6 +106,7 @@ from mitsar.focus.ffbp_stages import (
     to_numpy,
 )
 from mitsar.focus.grid import track_frame
+from mitsar.focus.interpolation import DEFAULT_INTERPOLATION, check_interpolation
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
 from mitsar.products.raw import radar_of
 
@@ -140,7 +141,8 @@ first-stage nodes now): the error of all five checked cases the same to 0.01 dB 
 def focus_ffbp(raw: xr.Dataset, layout_or_pixels: dict | NDArray, *, half_width: float,
                window: str, range_window: str, remove_rvp: bool, motion_correction: bool,
                range_upsample: int, options: dict | None = None, band_selection: str | None = None,
-               progress: bool = False) -> tuple[NDArray, NDArray, dict]:
+               progress: bool = False, range_interpolation: str = DEFAULT_INTERPOLATION
+               ) -> tuple[NDArray, NDArray, dict]:
     """Focus a raw product by fast factorised back-projection (see the module docstring).
 
     Parameters
@@ -166,6 +168,9 @@ def focus_ffbp(raw: xr.Dataset, layout_or_pixels: dict | NDArray, *, half_width:
         As :func:`mitsar.focus.bpa.focus_bpa`.
     progress : bool
         Show a progress bar over stages.
+    range_interpolation : {"cubic", "linear"}
+        Interpolation of the range profiles in the first stage and the band edges
+        (:mod:`mitsar.focus.interpolation`).
 
     Returns
     -------
@@ -175,6 +180,7 @@ def focus_ffbp(raw: xr.Dataset, layout_or_pixels: dict | NDArray, *, half_width:
         Processing attributes (band selection, options, stage count).
     """
     require_backend()  # LLVM (libLLVM >= 16) or CUDA (a device), docs/gpu.md
+    check_interpolation("focus", range_interpolation)
     settings = _options(options)
     pixels = _pixel_array(layout_or_pixels)
     sweeps = raw.sizes["sweep"]
@@ -227,7 +233,8 @@ def focus_ffbp(raw: xr.Dataset, layout_or_pixels: dict | NDArray, *, half_width:
                         _MARGIN * len(stages), window_support, LANE_NODES)
     _check_nodes(stage, first=True)
     tables = kernel_tables(profile, frequency, radar, local_positions, velocities, bp.centroid,
-                           kernel_half_width, kernel_window, motion_correction)
+                           kernel_half_width, kernel_window, motion_correction,
+                           interpolation=range_interpolation)
     first_stage(stage, node_frames(stage, normal, plane_point), tables, wavenumber)
     bar.update()
 
@@ -277,7 +284,9 @@ def focus_ffbp(raw: xr.Dataset, layout_or_pixels: dict | NDArray, *, half_width:
     values, coverage = normalise(bp, raw, pixels, merged, total, half_width, weights)
     extra = {"band_selection": bp.band_selection, "ffbp_stages": len(stages),
              "ffbp_final": "pixel band" if band is not None else "sub-apertures",
-             **{f"ffbp_{key}": value for key, value in settings.items()}}
+             **{f"ffbp_{key}": value for key, value in settings.items()},
+             "range_upsample": int(min(range_upsample, settings["lookup_upsample"])),
+             "range_interpolation": range_interpolation}
     return values, coverage, extra
 
 
