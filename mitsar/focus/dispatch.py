@@ -20,6 +20,7 @@ from mitsar.focus.channels import focus_channels
 from mitsar.focus.ffbp import focus_ffbp
 from mitsar.focus.frequency_domain import focus_frequency_domain
 from mitsar.focus.grid import Grid, SlantGrid, VolumeGrid, from_dict
+from mitsar.focus.interpolation import DEFAULT_INTERPOLATION, check_interpolation
 from mitsar.focus.mocomp import compensate, reference_line, reference_product
 from mitsar.focus.motion import is_straight_track
 from mitsar.focus.nesz import noise_variables
@@ -40,10 +41,11 @@ def focus(raw: xr.Dataset | Sequence[xr.Dataset], algorithm: str = "bpa",
           window: str = "rect", range_window: str | None = None,
           azimuth_resolution: float | None = None, remove_rvp: bool = True,
           motion_correction: bool = True, backend: str = "drjit",
-          range_upsample: int = 16, pixel_chunk: int | None = None,
+          range_upsample: int = 8, pixel_chunk: int | None = None,
           algorithm_options: dict | None = None, progress: bool = False,
           motion_compensation: bool = True, autofocus: str | None = None,
-          autofocus_options: dict | None = None, combine: str = "coherent") -> xr.Dataset:
+          autofocus_options: dict | None = None, combine: str = "coherent",
+          range_interpolation: str = DEFAULT_INTERPOLATION) -> xr.Dataset:
     """Focus a raw product into an image, or several passes into one image or volume.
 
     Parameters
@@ -76,7 +78,11 @@ def focus(raw: xr.Dataset | Sequence[xr.Dataset], algorithm: str = "bpa",
     backend : {"drjit", "numpy"}
         BPA kernel.
     range_upsample : int
-        Zero-padding factor of the range FFT before linear interpolation.
+        Zero-padding factor of the range FFT before the back-projections' interpolation.
+    range_interpolation : {"cubic", "linear"}
+        Interpolation of the range profiles in the back-projections (4-tap Lagrange cubic, or
+        linear; :mod:`mitsar.focus.interpolation`; cubic at 8x: -71 dB, linear at 16x: -48 dB
+        against a float64 reference, docs/focusing.md error budget).
     pixel_chunk : int, optional
         Pixels per kernel launch (memory bound); default 2^20, or 2^16 with a progress bar.
     algorithm_options : dict, optional
@@ -118,7 +124,8 @@ def focus(raw: xr.Dataset | Sequence[xr.Dataset], algorithm: str = "bpa",
             range_upsample=range_upsample, pixel_chunk=pixel_chunk,
             algorithm_options=algorithm_options, progress=progress,
             motion_compensation=motion_compensation, autofocus=autofocus,
-            autofocus_options=autofocus_options), autofocus)
+            autofocus_options=autofocus_options, range_interpolation=range_interpolation),
+            autofocus)
     if combine != "coherent":
         raise ParameterError("focus", "combine", f"'coherent' for one raw product (one of "
                              f"{COMBINE} combines a list of passes)", combine)
@@ -129,6 +136,7 @@ def focus(raw: xr.Dataset | Sequence[xr.Dataset], algorithm: str = "bpa",
     if algorithm not in ALGORITHMS:
         raise ParameterError("focus", "algorithm", f"one of {ALGORITHMS}", algorithm)
     checks.integer("focus", "range_upsample", range_upsample, 1)
+    check_interpolation("focus", range_interpolation)
     if pixel_chunk is not None:
         checks.integer("focus", "pixel_chunk", pixel_chunk, 1)
     if window not in WINDOWS:
@@ -170,7 +178,8 @@ def focus(raw: xr.Dataset | Sequence[xr.Dataset], algorithm: str = "bpa",
             range_upsample=range_upsample, pixel_chunk=pixel_chunk,
             algorithm_options=algorithm_options, progress=progress,
             motion_compensation=motion_compensation, autofocus=method,
-            autofocus_options=autofocus_options), autofocus)
+            autofocus_options=autofocus_options, range_interpolation=range_interpolation),
+            autofocus)
 
     radar = radar_of(raw)
     if int(raw.attrs.get("sweep_stride", 1)) > 1 and algorithm not in ("bpa", "ffbp"):
@@ -194,7 +203,8 @@ def focus(raw: xr.Dataset | Sequence[xr.Dataset], algorithm: str = "bpa",
                                  "a scene point (raw has 'reference_range')", algorithm)
         values, layout, extra = focus_referenced(
             raw, grid, azimuth_resolution=azimuth_resolution, window=window,
-            range_window=range_window, range_upsample=range_upsample)
+            range_window=range_window, range_upsample=range_upsample,
+            range_interpolation=range_interpolation)
         coverage = np.ones(values.shape)
         extra = {"rvp_removed": 0, "motion_correction": 0, "backend": "numpy", **extra}
     elif algorithm == "ffbp":
@@ -203,7 +213,8 @@ def focus(raw: xr.Dataset | Sequence[xr.Dataset], algorithm: str = "bpa",
         values, coverage, extra = ffbp(
             raw, layout, half_width=half_width, window=window, range_window=range_window,
             remove_rvp=remove_rvp, motion_correction=motion_correction,
-            range_upsample=range_upsample, options=algorithm_options, progress=progress)
+            range_upsample=range_upsample, options=algorithm_options, progress=progress,
+            range_interpolation=range_interpolation)
         extra = {"backend": "drjit", **extra}
     elif algorithm != "bpa":
         raw, layout, compensation = _straighten(raw, radar, grid, nominal_azimuth, half_width,
@@ -221,6 +232,7 @@ def focus(raw: xr.Dataset | Sequence[xr.Dataset], algorithm: str = "bpa",
             range_window=range_window, remove_rvp=remove_rvp,
             motion_correction=motion_correction, backend=backend,
             range_upsample=range_upsample, progress=progress,
+            range_interpolation=range_interpolation,
             pixel_chunk=pixel_chunk or (1 << 16 if progress else 1 << 20),
             row_length=layout["position"].shape[-2] if layout["position"].ndim > 2 else None)
     shape = layout["position"].shape[:-1]  # the grid's dims: two, or three for a volume
@@ -250,7 +262,8 @@ def focus(raw: xr.Dataset | Sequence[xr.Dataset], algorithm: str = "bpa",
         azimuth_resolution=azimuth_resolution, remove_rvp=remove_rvp,
         motion_correction=motion_correction, backend=backend, range_upsample=range_upsample,
         pixel_chunk=pixel_chunk, algorithm_options=algorithm_options, progress=progress,
-        motion_compensation=motion_compensation), autofocus, autofocus_options, settings)
+        motion_compensation=motion_compensation, range_interpolation=range_interpolation),
+        autofocus, autofocus_options, settings)
 
 
 def _check_volume(raw: xr.Dataset, algorithm: str, autofocus: str | None) -> None:
