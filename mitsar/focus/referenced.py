@@ -26,6 +26,7 @@ from mitsar.errors import ParameterError
 from mitsar.focus.aperture import aperture_resolution
 from mitsar.focus.backprojection import backproject_referenced
 from mitsar.focus.compression import range_spectrum
+from mitsar.focus.interpolation import DEFAULT_INTERPOLATION
 from mitsar.focus.windows import evaluate_window, window_coefficients
 from mitsar.products.raw import radar_of
 
@@ -33,7 +34,8 @@ __all__ = ["focus_referenced"]
 
 
 def focus_referenced(raw: xr.Dataset, grid: Any, *, azimuth_resolution: float | None,
-                     window: str, range_window: str, range_upsample: int = 16
+                     window: str, range_window: str, range_upsample: int = 8,
+                     range_interpolation: str = DEFAULT_INTERPOLATION
                      ) -> tuple[NDArray, dict, dict]:
     """Back-project a referenced raw product (:func:`raw_from_arrays`) onto a grid.
 
@@ -76,6 +78,9 @@ def focus_referenced(raw: xr.Dataset, grid: Any, *, azimuth_resolution: float | 
     pixels = layout["position"].reshape(-1, 3)
     values, total = backproject_referenced(
         profile, frequency, radar, pixels, positions[rows],
-        np.asarray(used["reference_range"].values, float), weight)
+        np.asarray(used["reference_range"].values, float), weight,
+        interpolation=range_interpolation)
     image = (values / total).reshape(layout["position"].shape[:2])
-    return image, layout, {"backend": "numpy", "referenced": 1, "rows_used": int(len(rows))}
+    return image, layout, {"backend": "numpy", "referenced": 1, "rows_used": int(len(rows)),
+                           "range_upsample": int(range_upsample),
+                           "range_interpolation": range_interpolation}
