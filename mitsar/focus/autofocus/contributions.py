@@ -67,7 +67,7 @@ class PulseSettings:
     range_window: str = "rect"
     remove_rvp: bool = True
     motion_correction: bool = True
-    range_upsample: int = 16
+    range_upsample: int = 8
 
 
 @dataclass(frozen=True)
