@@ -81,7 +81,7 @@ def test_failed_write_leaves_nothing(tmp_path, monkeypatch):
         path.write_bytes(b"partial")
         raise RuntimeError("disk full")
 
-    monkeypatch.setattr(io, "_write_netcdf", broken_writer)
+    monkeypatch.setattr(io.products, "_write_netcdf", broken_writer)
     with pytest.raises(RuntimeError, match="disk full"):
         io.save(_product(), tmp_path / "raw.nc")
     assert list(tmp_path.iterdir()) == []
@@ -94,7 +94,7 @@ def test_failed_overwrite_keeps_the_old_file(tmp_path, monkeypatch):
     def broken_writer(ds, target):
         raise OSError("interrupted")
 
-    monkeypatch.setattr(io, "_write_netcdf", broken_writer)
+    monkeypatch.setattr(io.products, "_write_netcdf", broken_writer)
     with pytest.raises(OSError, match="interrupted"):
         io.save(_product("image"), path, overwrite=True)
     assert path.read_bytes() == before

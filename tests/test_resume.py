@@ -154,7 +154,7 @@ def test_traced_with_analytic_targets_resumes(tmp_path: Path,
     experiment.write_text(SCENE_AND_TARGETS)
     full, raw = tmp_path / "full.nc", tmp_path / "raw.nc"
     assert main(["simulate", str(experiment), *CHUNKS, "-o", str(full), "-q"]) == 0
-    monkeypatch.setattr("mitsar.io._MARKS", [0])
+    monkeypatch.setattr("mitsar.io.work_folder._MARKS", [0])
     monkeypatch.setenv(INTERRUPT_ENV, "1")
     assert main(["simulate", str(experiment), *CHUNKS, "-o", str(raw), "-q"]) == 130
     monkeypatch.delenv(INTERRUPT_ENV)
