@@ -28,6 +28,16 @@ range bin. A scatterer on the grid's surface then focuses where the monostatic o
 channels co-registered) with the phase ``(2 pi / lambda)(L_k(q) - L_k(p))`` back-projection gives
 pixel p (docs/interferometry.md §8, "Spectral focusing of channels"). What remains is ``e``'s
 change with the direction sine within the processed aperture, evaluated at the centroid only.
+
+Elements with beams of their own (:attr:`mitsar.model.radar.Radar.has_element_beams`): every
+channel is processed on one **common** Doppler band, centred on the mean of the channels'
+two-way beam centres (:meth:`mitsar.model.radar.Radar.channel_boresights`), not each on its
+own: an interferometric pair must be processed to the same azimuth band, or the part of each
+channel's spectrum the other lacks decorrelates the pair (azimuth common-band filtering; Rosen
+et al. 2000; docs/interferometry.md §8, "Element beams in focusing"). With all elements
+looking the same way the band is centred on their beam, where the look's own band would hold
+no echo. The image records each channel's two-way ``channel_doppler_centroid`` [Hz] and the
+band's ``processed_doppler_centroid`` [Hz].
 """
 
 from __future__ import annotations
@@ -42,12 +52,13 @@ from mitsar.focus.autofocus.apply import correct_raw
 from mitsar.focus.bp_setup import channel_phase_centres
 from mitsar.focus.grid import Grid, PointsGrid, SlantGrid, VolumeGrid
 from mitsar.focus.motion import centroid_sines
+from mitsar.model.geometry.attitude import body_to_world
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
 from mitsar.model.signal import fast_time
-from mitsar.products.raw import radar_of
+from mitsar.products.raw import look_of, radar_of
 
-__all__ = ["CHANNEL_ALGORITHMS", "SPECTRAL_ALGORITHMS", "channel_view", "compensate_channel",
-           "focus_channels"]
+__all__ = ["CHANNEL_ALGORITHMS", "SPECTRAL_ALGORITHMS", "channel_view", "common_band",
+           "compensate_channel", "focus_channels"]
 
 SPECTRAL_ALGORITHMS = ("rda", "wda", "fsa")
 """Frequency-domain algorithms that focus channels after :func:`compensate_channel`."""
@@ -141,6 +152,9 @@ def focus_channels(raw: xr.Dataset, algorithm: str, grid: Grid,
         raise ParameterError("focus", "autofocus", "None for a TDM-MIMO raw product (its "
                              "channels hold the sweeps of different transmitters; "
                              "docs/interferometry.md)", autofocus)
+    band = common_band(raw) if radar_of(raw).has_element_beams else None
+    if band is not None:  # every channel on the channels' common band (module docstring)
+        raw = raw.assign(boresight=(("sweep", "xyz"), band[0], raw["boresight"].attrs))
     if algorithm in SPECTRAL_ALGORITHMS:
         first, images = _focus_spectral(raw, algorithm, grid, focus_one)
     else:
@@ -173,9 +187,47 @@ def focus_channels(raw: xr.Dataset, algorithm: str, grid: Grid,
                               + radar.sweep_duration / 2, {"units": "s",
                                                            "long_name": "mid-sweep time"})
     image.attrs.pop("channel", None)
+    if band is not None:
+        image["channel_doppler_centroid"] = (("channel",), band[1], {
+            "units": "Hz", "long_name": "Doppler centroid of the channel's two-way beam "
+            "(transmit x receive element), mean over the pass"})
+        image.attrs["processed_doppler_centroid"] = band[2]
+        image.attrs["processed_band"] = ("common to all channels, centred on the mean of their "
+                                         "two-way beams (mitsar.focus.channels.common_band)")
     if autofocus is not None:
         image.attrs["autofocus_channels"] = "channel 0's phase applied to all"
     return image
+
+
+def common_band(raw: xr.Dataset) -> tuple[np.ndarray, np.ndarray, float]:
+    """The common processed band of a multi-channel raw product with element beams (module
+    docstring).
+
+    Returns
+    -------
+    boresight : ndarray, shape (sweeps, 3)
+        World-frame unit vector per sweep whose Doppler centroid the focusers centre every
+        channel's band on: the normalised mean of the channels' two-way beam centres
+        (:meth:`mitsar.model.radar.Radar.channel_boresights`, body frame) rotated by each
+        sweep's attitude.
+    channel_centroids : ndarray, shape (channels,)
+        Each channel's two-way Doppler centroid ``2 v (v_hat . R b_k) / lambda`` [Hz], mean
+        over the sweeps (positive looking ahead; :func:`mitsar.focus.motion.doppler_centroid`).
+    centroid : float
+        The common band's Doppler centroid [Hz], mean over the sweeps.
+    """
+    radar = radar_of(raw)
+    beams = radar.channel_boresights(look_of(raw))
+    common = beams.mean(axis=0)
+    common /= np.linalg.norm(common)
+    rotation = body_to_world(*np.asarray(raw["attitude"].values, dtype=float).T)
+    velocity = np.asarray(raw["platform_velocity"].values, dtype=float)
+    speed = np.linalg.norm(velocity, axis=-1)
+    direction = velocity / np.where(speed > 0, speed, 1.0)[:, None]
+    scale = 2.0 * speed / radar.wavelength
+    world = np.einsum("sij,cj->csi", rotation, np.vstack([common, beams]))
+    centroids = (scale[None, :] * np.einsum("csi,si->cs", world, direction)).mean(axis=1)
+    return world[0], centroids[1:], float(centroids[0])
 
 
 def _focus_spectral(raw: xr.Dataset, algorithm: str, grid: Grid,

@@ -47,7 +47,7 @@ from mitsar.model.geometry.attitude import Look
 from mitsar.model.ops import NUMPY_OPS
 
 __all__ = ["Element", "ElementBeam", "channel_amplitude_factor", "element_beam",
-           "element_field_pattern", "element_frame"]
+           "element_field_pattern", "element_frame", "two_way_boresight"]
 
 MAX_OFFSET = 10.0
 """Largest body-frame offset of a phase centre [m] (an antenna a drone can carry)."""
@@ -184,6 +184,33 @@ def element_frame(element: Element, look: Look) -> NDArray[np.float64]:
     norm = float(np.linalg.norm(azimuth))
     azimuth = np.array([1.0, 0.0, 0.0]) if norm < 1e-12 else azimuth / norm
     return np.stack([azimuth, np.cross(b, azimuth), b], axis=-1)
+
+
+def two_way_boresight(transmit: Element, receive: Element, beamwidths: tuple[float, float],
+                      look: Look) -> NDArray[np.float64]:
+    """Centre of the two-way beam of channel (``transmit``, ``receive``), a body-frame unit
+    vector: the boresights ``b_t``, ``b_r`` (:func:`element_frame`'s third column) weighted by
+    the inverse squared azimuth beamwidths, ``b ~ b_t / beta_t^2 + b_r / beta_r^2``.
+
+    Near its boresight an element's one-way field is ``sinc(u / beta) ~ exp(-(pi^2/6)
+    (u / beta)^2)`` (second order in the azimuth sine u), so the two-way pattern
+    ``f_t f_r`` peaks at ``u = (u_t / beta_t^2 + u_r / beta_r^2) / (1 / beta_t^2 + 1 /
+    beta_r^2)``: the weighted mean above, whose component along the track is the channel's
+    Doppler-centroid sine (docs/interferometry.md §8, "Element beams in focusing"). Exact
+    when both elements look the same way (a ping-pong channel, or a receiver that shares the
+    transmitter's boresight); to second order in the boresights' separation otherwise.
+    ``beamwidths``: the radar's (azimuth, elevation) [rad], for elements without their own.
+    """
+    weights = [1.0 / element_beam(e, beamwidths, look).beamwidth_az ** 2
+               for e in (transmit, receive)]
+    vector = (weights[0] * element_frame(transmit, look)[:, 2]
+              + weights[1] * element_frame(receive, look)[:, 2])
+    norm = float(np.linalg.norm(vector))
+    if not norm > 1e-9:
+        raise ParameterError("two_way_boresight", "receive", "an element that does not look "
+                             "opposite its transmitter (the channel has no two-way beam)",
+                             receive)
+    return vector / norm
 
 
 class ElementBeam(NamedTuple):

@@ -18,7 +18,13 @@ from numpy.typing import ArrayLike, NDArray
 from mitsar.checks import KnownFields, check_units, finite, is_real, positive
 from mitsar.errors import ParameterError
 from mitsar.model.arrays import UniformArray
-from mitsar.model.elements import MAX_OFFSET, Element, ElementBeam, element_beam
+from mitsar.model.elements import (
+    MAX_OFFSET,
+    Element,
+    ElementBeam,
+    element_beam,
+    two_way_boresight,
+)
 
 if TYPE_CHECKING:
     from mitsar.model.geometry.attitude import Look
@@ -329,6 +335,15 @@ class Radar(metaclass=KnownFields):
         widths = (self.azimuth_beamwidth, self.elevation_beamwidth)
         return tuple((element_beam(t, widths, look), element_beam(r, widths, look))
                      for t, r in zip(transmitters, receivers, strict=True))
+
+    def channel_boresights(self, look: Look) -> NDArray[np.float64]:
+        """Centre of each channel's two-way beam (transmit element x receive element), body
+        frame, shape (channels, 3): :func:`mitsar.model.elements.two_way_boresight`; the
+        look's boresight for channels whose elements are the radar's antenna."""
+        transmitters, receivers = self.channel_elements()
+        widths = (self.azimuth_beamwidth, self.elevation_beamwidth)
+        return np.array([two_way_boresight(t, r, widths, look)
+                         for t, r in zip(transmitters, receivers, strict=True)])
 
     def require_shared_beam(self, where: str) -> None:
         """Refuse elements with their own pattern or boresight in a producer that models the
