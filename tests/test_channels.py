@@ -334,16 +334,18 @@ def test_traced_room_box_and_floor_heights_within_their_predicted_noise(tmp_path
         assert flagged.any(axis=1).sum() >= round((y_high - y_low) / 0.12) - 1, name
 
 
+@pytest.mark.slow
 def test_traced_room_heights_with_navigation_errors(tmp_path):
     """The box room of the test above, its echoes from the true track and focused on a recorded
     track with a 0.5 mm/sqrt(s) random walk and 0.3 mm noise per axis (seeded): what the motion
     errors cost in height. They are the platform's, common to both phase centres, so each
     region's median height stays within 2 predicted sigma_h of the truth and within one sigma_h
-    of its error-free value (measured: floor in front +2.3 mm vs -0.3 mm error-free, box top
-    +1.2 vs +0.9 mm, floor behind +0.2 vs -0.9 mm; sigma_h 8-11 mm). PGA is not asked for
-    here: on this distributed scene it finds 3 point-like scatterers, does not converge
-    (recorded in the image's ``autofocus_converged``) and smears heights of box top and floor
-    into 4 of 78 pixels below the coherence mask (docs/interferometry.md §8)."""
+    of its error-free value (measured: floor in front +0.2 mm vs -0.3 mm error-free, box top
+    +0.9 vs +0.9 mm, floor behind -1.0 vs -0.9 mm; sigma_h 7-11 mm). The same with autofocus
+    asked for (minimum entropy, the issue's "NavigationErrors and autofocus"): on this
+    distributed scene it finds no sharper stage, says so (``autofocus_converged = 0``) and
+    keeps the image, so the heights hold to the same bounds (measured: the medians of the run
+    without it). ~25 s."""
     height = 0.2
     scene = tmp_path / "box_room.xml"
     scene.write_text(BOX_ROOM.format(half=height / 2))
@@ -354,11 +356,16 @@ def test_traced_room_heights_with_navigation_errors(tmp_path):
     grid = mitsar.grid.PlaneGrid(origin=[15, 8, 0], axis_u=[0, 1, 0], axis_v=[1, 0, 0],
                                  u=[-2.0, 2.6, 0.12], v=[-0.9, 0.9, 0.1])
     medians = {}
-    for name, navigation in (("ideal", None), ("errors", errors)):
-        raw = mitsar.simulate_scene(radar, track, LOOK, str(scene), seed=3,
-                                    navigation=navigation)
-        ifg = mitsar.interferogram(mitsar.focus(raw, "bpa", grid, azimuth_resolution=0.1),
-                                   looks=(3, 3))
+    raws = {navigation: mitsar.simulate_scene(radar, track, LOOK, str(scene), seed=3,
+                                              navigation=navigation)
+            for navigation in (None, errors)}
+    for name, navigation, autofocus in (("ideal", None, None), ("errors", errors, None),
+                                        ("entropy", errors, "entropy")):
+        image = mitsar.focus(raws[navigation], "bpa", grid, azimuth_resolution=0.1,
+                             autofocus=autofocus)
+        if autofocus is not None:
+            assert image.attrs["autofocus_converged"] in (0, 1)
+        ifg = mitsar.interferogram(image, looks=(3, 3))
         ground = ifg["pixel_position"].values[..., 1]
         medians[name] = []
         for (low, high), truth in (((6.2, 6.85), 0.0), ((7.35, 8.45), height),
@@ -367,9 +374,10 @@ def test_traced_room_heights_with_navigation_errors(tmp_path):
             error = ifg["height"].values[chosen] - truth
             assert np.all(np.isfinite(error)), (name, low)
             medians[name].append((np.median(error), np.median(ifg["height_std"].values[chosen])))
-    for (ideal, _), (moved, sigma) in zip(medians["ideal"], medians["errors"], strict=True):
-        assert abs(moved) < 2 * sigma, (moved, sigma)
-        assert abs(moved - ideal) < sigma, (moved, ideal, sigma)
+    for name in ("errors", "entropy"):
+        for (ideal, _), (moved, sigma) in zip(medians["ideal"], medians[name], strict=True):
+            assert abs(moved) < 2 * sigma, (name, moved, sigma)
+            assert abs(moved - ideal) < sigma, (name, moved, ideal, sigma)
 
 
 def test_body_offsets_rotate_as_the_body_frame():
