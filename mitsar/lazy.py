@@ -9,9 +9,33 @@ from __future__ import annotations
 
 import importlib
 from collections.abc import Callable, Mapping
+from types import ModuleType
 from typing import Any
 
-__all__ = ["lazy_exports"]
+__all__ = ["LazyModule", "lazy_exports"]
+
+
+class LazyModule(ModuleType):
+    """A module imported on its first attribute access (then its namespace is copied here, so
+    later accesses are plain lookups): ``from mitsar.backend import drjit as dr`` at a kernel
+    module's top keeps ``dr.`` in its code while a NumPy-only path (a campaign rerun, the
+    analytic simulator in NumPy, metrics) never loads Dr.Jit's native libraries; a mitsar
+    module that needs a heavy stage only for its compute (a campaign's no-op rerun needs no
+    focuser) names it ``LazyModule("mitsar....")`` at its top (docs/design.md §3;
+    ``tests/test_layout.py`` counts the name as an import).
+
+    Parameters
+    ----------
+    name : str
+        The module's import name, e.g. ``"drjit"``.
+    """
+
+    def __getattr__(self, attribute: str) -> Any:
+        if attribute.startswith("__"):
+            raise AttributeError(attribute)
+        module = importlib.import_module(self.__name__)
+        self.__dict__.update((k, v) for k, v in vars(module).items() if not k.startswith("__"))
+        return getattr(module, attribute)
 
 
 def lazy_exports(package: str, exports: Mapping[str, str], namespace: dict[str, Any],

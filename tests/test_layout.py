@@ -63,12 +63,14 @@ def _resolve(base: str, name: str | None) -> str:
 
 
 def _is_import_call(node: ast.AST) -> bool:
-    """``importlib.import_module(...)``, ``import_module(...)`` or ``__import__(...)``."""
+    """``importlib.import_module(...)``, ``import_module(...)``, ``__import__(...)`` or
+    ``LazyModule(...)`` (:class:`mitsar.lazy.LazyModule`: imported on first use, an import all
+    the same)."""
     if not isinstance(node, ast.Call):
         return False
     func = node.func
     name = func.attr if isinstance(func, ast.Attribute) else getattr(func, "id", None)
-    return name in ("import_module", "__import__")
+    return name in ("import_module", "__import__", "LazyModule")
 
 
 def _by_name(tree: ast.Module) -> list[str]:
@@ -177,6 +179,7 @@ UPWARD_BY_NAME = {
     "from importlib": 'from importlib import import_module\n\n'
                       'def load():\n    return import_module("mitsar.focus")\n',
     "dunder": 'def load():\n    return __import__("mitsar.cli")\n',
+    "lazy module": 'from mitsar.lazy import LazyModule\n\nfocus = LazyModule("mitsar.focus")\n',
     "tuple of names": 'import importlib\n\nNAMES = ("mitsar.model.radar", "mitsar.raw.traced")\n\n'
                       'def load():\n    return [importlib.import_module(n) for n in NAMES]\n',
 }
