@@ -28,28 +28,7 @@ from types import ModuleType
 from typing import Any
 
 from mitsar.errors import MitsarError, ParameterError
-
-
-class LazyModule(ModuleType):
-    """A module imported on its first attribute access (then its namespace is copied here, so
-    later accesses are plain lookups): ``from mitsar.backend import drjit as dr`` at a kernel
-    module's top keeps ``dr.`` in its code while a NumPy-only path (a campaign rerun, the
-    analytic simulator in NumPy, metrics) never loads Dr.Jit's native libraries
-    (docs/design.md §3).
-
-    Parameters
-    ----------
-    name : str
-        The module's import name, e.g. ``"drjit"``.
-    """
-
-    def __getattr__(self, attribute: str) -> Any:
-        if attribute.startswith("__"):
-            raise AttributeError(attribute)
-        module = importlib.import_module(self.__name__)
-        self.__dict__.update((k, v) for k, v in vars(module).items() if not k.startswith("__"))
-        return getattr(module, attribute)
-
+from mitsar.lazy import LazyModule
 
 drjit = LazyModule("drjit")
 """Dr.Jit, imported when a kernel first uses it (:class:`LazyModule`)."""
