@@ -34,7 +34,7 @@ import numpy as np
 
 from mitsar.checks import KnownFields, is_real
 from mitsar.errors import ParameterError
-from mitsar.model.elements import BEAM_FIELDS, Element
+from mitsar.model.elements import BEAM_FIELDS, Element, body_vector
 
 __all__ = ["MIN_SPACING_WAVELENGTHS", "UniformArray"]
 
@@ -124,7 +124,7 @@ class UniformArray(metaclass=KnownFields):
         for name in ("axis", "transmitter_axis"):
             value = getattr(self, name)
             if value is not None:
-                vector = _vector(name, value, "a non-zero body-frame 3-vector")
+                vector = body_vector("UniformArray", name, value, "a non-zero body-frame 3-vector")
                 norm = math.sqrt(sum(v * v for v in vector))
                 if not norm > 0:
                     raise ParameterError("UniformArray", name, "a non-zero body-frame 3-vector",
@@ -133,7 +133,8 @@ class UniformArray(metaclass=KnownFields):
         for name in ("origin", "transmitter_origin"):
             value = getattr(self, name)
             if value is not None:
-                object.__setattr__(self, name, _vector(name, value, "a body-frame 3-vector [m]"))
+                object.__setattr__(self, name, body_vector("UniformArray", name, value,
+                                                              "a body-frame 3-vector [m]"))
         for name in ("receiver_beam", "transmitter_beam"):
             value = getattr(self, name)
             if value is None:
@@ -211,12 +212,3 @@ def _line(count: int, origin: tuple[float, ...], axis: tuple[float, ...], spacin
                                  error.found) from None
     return tuple(elements)
 
-
-def _vector(name: str, value: Any, expected: str) -> tuple[float, float, float]:
-    try:
-        row = tuple(float(v) for v in value)
-    except (TypeError, ValueError):
-        raise ParameterError("UniformArray", name, expected, value) from None
-    if len(row) != 3 or not all(math.isfinite(v) for v in row):
-        raise ParameterError("UniformArray", name, expected, value)
-    return row  # type: ignore[return-value]

@@ -92,8 +92,8 @@ class Element(metaclass=KnownFields):
     boresight: tuple[float, float, float] | None = None
 
     def __post_init__(self) -> None:
-        position = _vector("position", self.position,
-                           f"a body-frame 3-vector [m] with |x| <= {MAX_OFFSET:g} m per axis")
+        position = body_vector("Element", "position", self.position,
+                               f"a body-frame 3-vector [m] with |x| <= {MAX_OFFSET:g} m per axis")
         if any(abs(v) > MAX_OFFSET for v in position):
             raise ParameterError("Element", "position", f"|x| <= {MAX_OFFSET:g} m per axis (an "
                                  "antenna a drone can carry)", self.position)
@@ -123,8 +123,8 @@ class Element(metaclass=KnownFields):
             object.__setattr__(self, "off_nadir_deg", float(look.off_nadir_deg))
             object.__setattr__(self, "squint_deg", float(look.squint_deg))
         if self.boresight is not None:
-            vector = np.asarray(_vector("boresight", self.boresight,
-                                        "a non-zero body-frame 3-vector"))
+            vector = np.asarray(body_vector("Element", "boresight", self.boresight,
+                                            "a non-zero body-frame 3-vector"))
             norm = float(np.linalg.norm(vector))
             if not norm > 0:
                 raise ParameterError("Element", "boresight", "a non-zero body-frame 3-vector",
@@ -162,13 +162,16 @@ class Element(metaclass=KnownFields):
         return out
 
 
-def _vector(name: str, value: Any, expected: str) -> tuple[float, float, float]:
+def body_vector(where: str, name: str, value: Any, expected: str
+                ) -> tuple[float, float, float]:
+    """``value`` as a 3-tuple of finite floats (a body-frame vector), or a
+    :class:`~mitsar.errors.ParameterError` of ``where`` naming ``name``."""
     try:
         row = tuple(float(v) for v in value)
     except (TypeError, ValueError):
-        raise ParameterError("Element", name, expected, value) from None
+        raise ParameterError(where, name, expected, value) from None
     if len(row) != 3 or not all(math.isfinite(v) for v in row):
-        raise ParameterError("Element", name, expected, value)
+        raise ParameterError(where, name, expected, value)
     return row  # type: ignore[return-value]
 
 
