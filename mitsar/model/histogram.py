@@ -283,12 +283,14 @@ def histogram_to_raw(histogram: ArrayLike, bin_ranges: ArrayLike, radar: Radar) 
     k = first + np.arange(count)
     centring = np.exp(-1j * np.pi * k * (frequency_step(radar, bins_per_cell)
                                          * radar.sweep_duration))
-    weighted = histogram.astype(np.complex128) * centring
     spectrum = np.zeros(histogram.shape[:-1] + (size,), dtype=np.complex128)
     slots = np.mod(k, size)
-    if count <= size and len(np.unique(slots)) == count:
-        spectrum[..., slots] = weighted
+    if count <= size and slots[0] + count <= size:  # one run of slots: weighted in place
+        np.multiply(histogram, centring, out=spectrum[..., slots[0]:slots[0] + count])
+    elif count <= size and len(np.unique(slots)) == count:  # the run wraps around
+        spectrum[..., slots] = histogram * centring
     else:  # a grid wider than the band: several bins alias onto one DFT slot
+        weighted = histogram * centring
         for slot in np.unique(slots):
             spectrum[..., slot] = weighted[..., slots == slot].sum(axis=-1)
     # SciPy's pocketfft without the 1/M scaling (norm="forward"): the same sum as

@@ -269,7 +269,10 @@ def _synthesise(histogram: NDArray, available: NDArray, orders: tuple[int, ...] 
     """
     mask = (np.ones(len(available), dtype=bool) if orders is None
             else np.isin(available, np.asarray(orders)))
-    samples = hg.histogram_to_raw(histogram[..., mask, :].sum(axis=-2), ranges, radar)
+    # one order kept: its histograms as they are (a view; a sum of one term is that term)
+    kept = (histogram[..., int(np.flatnonzero(mask)[0]), :] if np.count_nonzero(mask) == 1
+            else histogram[..., mask, :].sum(axis=-2))
+    samples = hg.histogram_to_raw(kept, ranges, radar)
     return samples, available[mask]
 
 

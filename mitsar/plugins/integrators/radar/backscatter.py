@@ -68,6 +68,7 @@ from mitsar.plugins.integrators.radar.constants import (
     visibility_block_arrays,
 )
 from mitsar.plugins.integrators.radar.deposit import deposit
+from mitsar.plugins.integrators.radar.receivers import receiver_polynomial_holds
 from mitsar.plugins.integrators.radar.setup import TraceSetup
 from mitsar.plugins.ops import DRJIT_OPS
 from mitsar.plugins.threads import deterministic, order_independent
@@ -425,6 +426,13 @@ def backscatter_chunk(scene: Any, scatterers: ScattererArrays, geometry: SweepGe
         sweep_arrays.step = steps
         polynomial = uniform and amplitude_polynomial_holds(half_span, float(nearest[0]),
                                                             radar)
+        # receivers away from the transmitter: offsets from its deposit as polynomials where
+        # their bound holds (receivers.py), else the exact half path per sweep
+        position = geometry.position[chosen]
+        receiver_polynomial = uniform and apart > 0.0 and receiver_polynomial_holds(
+            0.5 * float(np.linalg.norm(position[-1] - position[0])),
+            float(nearest[0]) - half_span, float(farthest[0]) + half_span, 2.0 * apart,
+            float(np.linalg.norm(geometry.velocity[chosen], axis=1).max()), constants)
         units = fixed_point_scale(scatterers, constants) if exact else None
     for m0 in range(0, width_found, block):
         width = min(block, width_found - m0)
@@ -448,7 +456,7 @@ def backscatter_chunk(scene: Any, scatterers: ScattererArrays, geometry: SweepGe
                 runs = None if dr.any(irregular)[0] else (first, end)
                 contributions = block_trace(scatterers, sweep_arrays, constants, found,
                                             visibility, width, packets, uniform, polynomial,
-                                            units, runs)
+                                            units, runs, receiver_polynomial)
                 dr.eval(packets, contributions)
                 # Every contribution is counted by the block kernel, the split pairs' too.
                 statistics["shadow_rays"] += int(dr.sum(contributions)[0])

@@ -33,6 +33,7 @@ from mitsar.plugins.integrators.radar.constants import (
     SweepArrays,
     VisibilityBlocks,
 )
+from mitsar.plugins.integrators.radar.receivers import horner, receiver_offsets
 from mitsar.plugins.ops import DRJIT_OPS, sincos_turns
 
 
@@ -203,7 +204,7 @@ def deposit_runs(blocks: VisibilityBlocks, constants: Constants, visibility: Any
 def block_trace(scatterers: ScattererArrays, sweep_arrays: SweepArrays, constants: Constants,
                 found: Any, visibility: Any, width: int,
                 packets: Any, uniform: bool, polynomial: bool, units: float | None,
-                runs: tuple[Any, Any] | None = None) -> Any:
+                runs: tuple[Any, Any] | None = None, receiver_polynomial: bool = False) -> Any:
     """Trace every sweep of the chunk for ``width`` candidates: a lane per candidate, a symbolic
     loop over sweeps.
 
@@ -245,11 +246,15 @@ def block_trace(scatterers: ScattererArrays, sweep_arrays: SweepArrays, constant
       change in float64; then :func:`~mitsar.plugins.ops.sincos_turns` in float32;
     - receivers (``sweep_arrays.receivers``): each receiver of the transmitter gets its own
       packet rows ``k sweeps + s``; one at the transmitter deposits as above, one elsewhere at
-      half its exact path ``P_j = (R_j + R'_j)/2`` (:func:`mitsar.model.signal.half_path`),
-      ``R'_j`` its own range advanced as ``R_j`` is from its own anchor vector (a rigid body
-      offset moves by the same step ``s`` over a uniform chunk), ``P``'s ramp from
-      ``(g + g')/2`` and its rest, Doppler and residual video phase as the half sums; the
-      beam, visibility and amplitude are the transmitter's, shared by all its receivers;
+      half its exact path ``P_j = (R_j + R'_j)/2`` (:func:`mitsar.model.signal.half_path`):
+      with ``receiver_polynomial`` (a uniform chunk, :func:`~.receivers.
+      receiver_polynomial_holds`) the transmitter's bin and phase plus the receiver's offsets
+      from them as polynomials in ``j`` (:func:`~.receivers.receiver_offsets`, the error
+      bounded below 1e-6 cycles and bins); otherwise ``R'_j`` its own range advanced as
+      ``R_j`` is from its own anchor vector (a rigid body offset moves by the same step ``s``
+      over a uniform chunk), ``P``'s ramp from ``(g + g')/2`` and its rest, Doppler and
+      residual video phase as the half sums; the beam, visibility and amplitude are the
+      transmitter's, shared by all its receivers;
     - deposit: one packet of four values (re, im of the lower and of the upper bin) added at
       ``4 (s bins + lower)`` of ``packets``, non-atomically (``ReduceMode.Expand``: a copy per
       thread, summed afterwards): int64 in fixed-point units (``units`` per amplitude unit,
@@ -371,8 +376,19 @@ def block_trace(scatterers: ScattererArrays, sweep_arrays: SweepArrays, constant
         sines0 = frame_sines(o0f, fixed)
         sines_step = frame_sines(step, fixed)
         along0, along_step = dr.dot(o0f, velocity), dr.dot(step, velocity)
+        # t = (j - centre) / half in [-1, 1] over the chunk's sweeps [-anchor, sweeps - 1 -
+        # anchor]: the variable of the amplitude's and the receivers' polynomials.
+        centre = f32(sweeps - 1) * 0.5 - f32(anchor)
+        half = dr.maximum(f32(sweeps - 1) * 0.5, 0.5)
+        inv_half = 1.0 / half
         for leg in legs:
             if leg is None:
+                continue
+            if receiver_polynomial:
+                velocity64 = [dr.gather(f64, c, anchor) for c in sweep_arrays.velocity]
+                leg.offsets = receiver_offsets(o0, leg.o0, step64, velocity64, f64(centre),
+                                               f64(half), constants, AMPLITUDE_NODES,
+                                               _MONOMIAL)
                 continue
             g_rx64 = (leg.o0[0] * step64[0] + leg.o0[1] * step64[1]
                       + leg.o0[2] * step64[2]) / leg.r0
@@ -384,10 +400,8 @@ def block_trace(scatterers: ScattererArrays, sweep_arrays: SweepArrays, constant
             leg.ramp_lo = f32(ramp64 - f64(leg.ramp_hi))
             leg.along0 = dr.dot(mi.Vector3f(*(f32(c) for c in leg.o0)), velocity)
     if polynomial:
-        # 5. The amplitude as a polynomial in t = (j - centre) / half over the chunk's sweeps
-        # [-anchor, sweeps - 1 - anchor], through its values at the Chebyshev nodes.
-        centre = f32(sweeps - 1) * 0.5 - f32(anchor)
-        half = dr.maximum(f32(sweeps - 1) * 0.5, 0.5)
+        # 5. The amplitude as a polynomial in t over the chunk's sweeps, through its values at
+        # the Chebyshev nodes.
         values = [amplitude(o0f - (centre + half * t) * step, fixed)
                   for t in AMPLITUDE_NODES]
         coefficients = [sum(row[i] * values[i] for i in range(len(values)))
@@ -395,7 +409,6 @@ def block_trace(scatterers: ScattererArrays, sweep_arrays: SweepArrays, constant
         lit = values[0] > 0.0
         for value in values[1:]:
             lit |= value > 0.0
-        inv_half = 1.0 / half
     else:
         lit = mi.Bool(True)
     # Constants read once, outside the loop (gathers inside it are not hoisted past the
@@ -470,11 +483,9 @@ def block_trace(scatterers: ScattererArrays, sweep_arrays: SweepArrays, constant
                       + rvp * hg.rvp_cycles_change(delta, r0f, radar32))
             s_az, s_el, s_b = (dr.fma(-j, d, s0) for s0, d in zip(sines0, sines_step,
                                                                   strict=True))
+            t = (j - centre) * inv_half
             if polynomial:
-                t = (j - centre) * inv_half
-                amp = coefficients[-1]
-                for c in reversed(coefficients[:-1]):
-                    amp = dr.fma(amp, t, c)
+                amp = horner(coefficients, t)
             else:  # near the antenna: exact per sweep
                 amp = amplitude(o0f - j * step, fixed)
         else:
@@ -504,10 +515,14 @@ def block_trace(scatterers: ScattererArrays, sweep_arrays: SweepArrays, constant
         else:  # 32-bit compares: a tenth of the kernel less than the 64-bit mask test
             shared = in_beam & (s >= runs[0]) & (s < runs[1]) & lit
         counted = None
+        # the transmitter's bin position relative to bin0 and its phase
+        tx_x = fraction0 + (delta + doppler * rdot) * inv_step
         for k, leg in enumerate(legs):
             if leg is None:  # at the transmitter: its range
-                path_x = fraction0 + (delta + doppler * rdot) * inv_step
-                path_bin0, path_cycles = bin0, cycles
+                path_x, path_bin0, path_cycles = tx_x, bin0, cycles
+            elif receiver_polynomial:  # the transmitter's plus the leg's offsets
+                path_x = tx_x + horner(leg.offsets.bins, t)
+                path_bin0, path_cycles = bin0, cycles + horner(leg.offsets.phase, t)
             else:  # elsewhere: half the exact path, its rate and phase
                 path_x, path_cycles = receiver_leg(leg, s, j, tx)
                 path_bin0 = leg.bin0
