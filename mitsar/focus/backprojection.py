@@ -46,7 +46,7 @@ from mitsar.focus.interpolation import (
     DEFAULT_INTERPOLATION,
     coefficient_table,
     horner,
-    kernel_packets,
+    jit_packets,
     lookup,
     numpy_fma,
 )
@@ -422,7 +422,7 @@ def kernel_tables(profile: NDArray, frequency: NDArray, radar: Radar, positions:
                     + ([] if receivers is None else
                        [jit_array(Float64, receivers[:, i], np.float64) for i in range(3)]))
     # Profiles are read at random: one packet of coefficients per lookup.
-    pairs = jit_array(Float32, kernel_packets(profile, interpolation), np.float32)
+    pairs = jit_packets(profile, interpolation, jit_array)
     return constants, sweep_arrays, pairs
 
 

@@ -73,7 +73,7 @@ from mitsar.focus.backprojection import (
     kernel_tables,
     profile_position,
 )
-from mitsar.focus.interpolation import DEFAULT_INTERPOLATION, kernel_packets, lookup
+from mitsar.focus.interpolation import DEFAULT_INTERPOLATION, jit_packets, lookup
 from mitsar.focus.windows import cosine_series
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
 
@@ -349,7 +349,7 @@ def _run_lanes(profile: NDArray, frequency: NDArray, radar: Radar, centre: NDArr
                                                interpolation=interpolation)
     constants["bins"] = dr.opaque(UInt32, profile.shape[1])
     # the interpolation coefficients of every bin: one packet (16 or 32 bytes) per lookup
-    pairs = jit_array(Float32, kernel_packets(profile, interpolation), np.float32)
+    pairs = jit_packets(profile, interpolation, jit_array)
     sweeps = len(positions)
     span = -(-sweeps // SWEEP_PARTS)          # a part: sweeps [j span, (j + 1) span)
     first_part = lane_first // span

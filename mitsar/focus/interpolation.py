@@ -49,12 +49,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from mitsar.backend import array_namespace, namespace_of
 from mitsar.backend import drjit as dr  # imported when a kernel runs (LazyModule)
-from mitsar.backend import namespace_of
 from mitsar.errors import ParameterError
 
 __all__ = ["DEFAULT_INTERPOLATION", "INTERPOLATIONS", "check_interpolation", "coefficients",
-           "coefficient_table", "error_bound", "horner", "kernel_packets", "lookup",
+           "coefficient_table", "error_bound", "horner", "jit_packets", "kernel_packets",
+           "lookup",
            "numpy_fma"]
 
 INTERPOLATIONS = ("linear", "cubic")
@@ -131,8 +132,44 @@ def kernel_packets(profile: NDArray, interpolation: str) -> NDArray[np.float32]:
     ((real, imaginary) of each coefficient in turn), flat: what :func:`lookup` reads.
 
     Computed in the profile's precision, rounded once."""
-    table = coefficient_table(profile, interpolation)
-    return np.ascontiguousarray(table, dtype=np.complex64).view(np.float32).ravel()
+    profile = np.asarray(profile, dtype=np.complex64)
+    *rows, bins = profile.shape
+    out = np.empty((*rows, bins, TERMS[interpolation]), dtype=np.complex64)
+    out[..., 0] = profile
+    if interpolation == "linear":
+        np.subtract(profile[..., 1:], profile[..., :-1], out=out[..., :-1, 1])
+        out[..., -1, 1] = out[..., -2, 1]   # the extrapolated last interval (never read)
+        return out.view(np.float32).ravel()
+    # eq. (1) in single precision (rounding ~1e-7 of the profile) without full temporaries:
+    # the interior bins 1 ... F-3 from slices, the two end intervals from coefficient_table
+    before, low, high, after = (profile[..., :-3], profile[..., 1:-2], profile[..., 2:-1],
+                                profile[..., 3:])
+    inner = out[..., 1:-2, :]
+    np.subtract(high, low * np.float32(0.5), out=inner[..., 1])
+    inner[..., 1] -= before * np.float32(1 / 3)
+    inner[..., 1] -= after * np.float32(1 / 6)
+    np.add(before, high, out=inner[..., 2])
+    inner[..., 2] *= np.float32(0.5)
+    inner[..., 2] -= low
+    np.subtract(after, before, out=inner[..., 3])
+    inner[..., 3] *= np.float32(1 / 6)
+    inner[..., 3] += (low - high) * np.float32(0.5)
+    ends = coefficient_table(np.concatenate([profile[..., :3], profile[..., -3:]], -1),
+                             interpolation)
+    out[..., 0, :], out[..., -2:, :] = ends[..., 0, :], ends[..., -2:, :]
+    return out.view(np.float32).ravel()
+
+
+def jit_packets(profile: NDArray, interpolation: str, array: Callable) -> Any:
+    """:func:`kernel_packets` as the Dr.Jit array :func:`lookup` reads: float32 (linear,
+    one ``Array4f`` packet a bin), or 64-bit words of (real, imaginary) float32 (cubic, one
+    ``Array4u64`` packet a bin). ``array(kind, values, dtype)`` makes an aligned Dr.Jit array
+    (:func:`mitsar.focus.backprojection.jit_array`)."""
+    packets = kernel_packets(profile, interpolation)
+    jit = array_namespace()
+    if interpolation == "linear":
+        return array(jit.Float32, packets, np.float32)
+    return array(jit.UInt64, packets.view(np.uint64), np.uint64)
 
 
 def lookup(packets: Any, flat: Any, fraction: Any, active: Any, interpolation: str
@@ -146,7 +183,7 @@ def lookup(packets: Any, flat: Any, fraction: Any, active: Any, interpolation: s
         taps = dr.gather(jit.Array4f, packets, index, active)
         return (horner((taps[0], taps[2]), fraction, dr.fma),
                 horner((taps[1], taps[3]), fraction, dr.fma))
-    low = dr.gather(jit.Array4f, packets, index + index, active)
-    high = dr.gather(jit.Array4f, packets, index + index + 1, active)
-    return (horner((low[0], low[2], high[0], high[2]), fraction, dr.fma),
-            horner((low[1], low[3], high[1], high[3]), fraction, dr.fma))
+    words = dr.gather(jit.Array4u64, packets, index, active)   # one 32-byte packet
+    real = [dr.reinterpret_array(jit.Float32, jit.UInt32(w)) for w in words]
+    imag = [dr.reinterpret_array(jit.Float32, jit.UInt32(w >> 32)) for w in words]
+    return horner(tuple(real), fraction, dr.fma), horner(tuple(imag), fraction, dr.fma)
