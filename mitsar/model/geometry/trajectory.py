@@ -10,11 +10,10 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.interpolate import CubicHermiteSpline, CubicSpline
 
 from mitsar.budget import require_memory
 from mitsar.checks import (
@@ -29,8 +28,15 @@ from mitsar.checks import (
     vector,
 )
 from mitsar.errors import MitsarWarning, ParameterError
+from mitsar.lazy import LazyModule
 from mitsar.model.geometry.aperture import MEAN_TRACK_TIME, mean_track_velocity
 from mitsar.model.geometry.flight import sample_flight
+
+if TYPE_CHECKING:
+    from scipy.interpolate import CubicHermiteSpline
+
+interpolate = LazyModule("scipy.interpolate")
+"""SciPy's splines, imported when a sampled track is made (reading a linear one needs none)."""
 
 _VECTOR = "3 finite numbers [m or m/s]"
 """Expectation of the 3-vector arguments (start, velocity) in error messages."""
@@ -384,7 +390,7 @@ class Trajectory:
         _check_positions("positions", positions, "positions [m]")
         times = times - times[0]
         if velocities is None:
-            velocities = CubicSpline(times, positions, axis=0)(times, 1)
+            velocities = interpolate.CubicSpline(times, positions, axis=0)(times, 1)
             if not np.all(_speed_rows(velocities) <= MAX_SPEED):
                 raise ParameterError(_WHERE, "positions", "positions whose speed between "
                                      f"samples (spline estimate) stays <= {MAX_SPEED:g} m/s "
@@ -396,7 +402,7 @@ class Trajectory:
             raise ParameterError("Trajectory", "velocities",
                                  f"finite values of shape {positions.shape}", velocities.shape)
         _check_speeds("velocities", velocities)
-        spline = CubicHermiteSpline(times, positions, velocities, axis=0)
+        spline = interpolate.CubicHermiteSpline(times, positions, velocities, axis=0)
         attitude = None
         if attitude_deg is not None:
             if not (isinstance(heading, str) and heading == "mean"):
