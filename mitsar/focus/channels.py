@@ -42,12 +42,13 @@ band's ``processed_doppler_centroid`` [Hz].
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable
 
 import numpy as np
 import xarray as xr
 
-from mitsar.errors import ParameterError
+from mitsar.errors import MitsarWarning, ParameterError
 from mitsar.focus.autofocus.apply import correct_raw
 from mitsar.focus.bp_setup import channel_phase_centres
 from mitsar.focus.grid import Grid, PointsGrid, SlantGrid, VolumeGrid
@@ -152,9 +153,11 @@ def focus_channels(raw: xr.Dataset, algorithm: str, grid: Grid,
         raise ParameterError("focus", "autofocus", "None for a TDM-MIMO raw product (its "
                              "channels hold the sweeps of different transmitters; "
                              "docs/interferometry.md)", autofocus)
-    band = common_band(raw) if radar_of(raw).has_element_beams else None
+    band = (common_band(raw) if radar_of(raw).has_element_beams
+            and "look_off_nadir_deg" in raw.attrs else None)
     if band is not None:  # every channel on the channels' common band (module docstring)
         raw = raw.assign(boresight=(("sweep", "xyz"), band[0], raw["boresight"].attrs))
+        _warn_beams_off_band(raw, band[1], band[2])
     if algorithm in SPECTRAL_ALGORITHMS:
         first, images = _focus_spectral(raw, algorithm, grid, focus_one)
     else:
@@ -228,6 +231,30 @@ def common_band(raw: xr.Dataset) -> tuple[np.ndarray, np.ndarray, float]:
     world = np.einsum("sij,cj->csi", rotation, np.vstack([common, beams]))
     centroids = (scale[None, :] * np.einsum("csi,si->cs", world, direction)).mean(axis=1)
     return world[0], centroids[1:], float(centroids[0])
+
+
+def _warn_beams_off_band(raw: xr.Dataset, centroids: np.ndarray, centroid: float) -> None:
+    """MitsarWarning naming the channels whose two-way beam centre lies more than half their
+    narrower element's azimuth beamwidth (in direction sine) from the common band's centre:
+    the band's scatterers reach them on their beam's edge (weak images; the pair stays
+    coherent on its common band)."""
+    radar = radar_of(raw)
+    speed = float(np.mean(np.linalg.norm(np.asarray(raw["platform_velocity"].values,
+                                                    dtype=float), axis=-1)))
+    if not speed > 0:
+        return
+    offsets = np.abs(centroids - centroid) * radar.wavelength / (2.0 * speed)
+    limits = np.array([0.5 * min(t.beamwidth_az, r.beamwidth_az)
+                       for t, r in radar.channel_beams(look_of(raw))])
+    off = np.flatnonzero(offsets > limits)
+    if off.size:
+        warnings.warn(
+            f"focus: the two-way beams of channels {off.tolist()} are centred "
+            f"{np.degrees(np.arcsin(np.minimum(offsets[off], 1.0))).round(1).tolist()} deg "
+            "(along track) from the channels' common processed band, more than half their "
+            "azimuth beamwidth: their images hold the band's scatterers on the beam's edge "
+            "(weak). Point the elements' boresights closer together (docs/interferometry.md "
+            "§8, 'Element beams in focusing')", MitsarWarning, stacklevel=3)
 
 
 def _focus_spectral(raw: xr.Dataset, algorithm: str, grid: Grid,
