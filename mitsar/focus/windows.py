@@ -26,10 +26,14 @@ def window_coefficients(name: str, nbar: int = 4, sidelobe_db: float = 35.0) -> 
 
     Parameters
     ----------
-    name : {"rect", "hamming", "hann", "taylor"}
+    name : {"rect", "hamming", "hann", "taylor"} or ndarray
+        A window's name, or its coefficients already (returned as they are; e.g.
+        :data:`mitsar.focus.band_limit.FLAT_TOP`).
     nbar, sidelobe_db : int, float
         Taylor parameters (number of nearly constant sidelobes, sidelobe level [dB]).
     """
+    if isinstance(name, np.ndarray):
+        return name
     if name in ("rect", "rectangular", None):
         return np.array([1.0])
     if name == "hamming":
