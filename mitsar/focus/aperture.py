@@ -312,11 +312,33 @@ def aspect_frames(pixels: NDArray, positions: NDArray, velocities: NDArray,
     centre_sine : ndarray, shape (P,)
         ``d_hat . l_hat`` at the crossing (l_hat: antenna to pixel).
     """
+    direction, centre, _ = _aspect_crossings(pixels, positions, velocities, centroid_sine,
+                                             samples, chunk, smoothing_time, sweep_interval)
+    return direction, centre
+
+
+def centre_of_aperture_sight(pixels: NDArray, positions: NDArray, velocities: NDArray,
+                             centroid_sine: NDArray, **options) -> NDArray:
+    """Unit line of sight (antenna to pixel) at every pixel's beam-centre crossing in the
+    mean-track frame (:func:`aspect_frames`, whose keyword ``options`` it takes): the centre
+    of the pixel's processed aperture, whose spatial frequency ``-k l . e`` along a grid axis
+    e the pixels' spectrum is centred on (``exp(-j 2 pi k l . x)``, k = 2 f_c / c;
+    docs/conventions.md, BPA de-rotation). Shape (P, 3)."""
+    return _aspect_crossings(pixels, positions, velocities, centroid_sine, **options)[2]
+
+
+def _aspect_crossings(pixels: NDArray, positions: NDArray, velocities: NDArray,
+                      centroid_sine: NDArray, samples: int = 256, chunk: int = 32768,
+                      smoothing_time: float = MEAN_TRACK_TIME,
+                      sweep_interval: float | None = None) -> tuple[NDArray, NDArray, NDArray]:
+    """Direction, centre sine and unit line of sight at each pixel's crossing
+    (:func:`aspect_frames`)."""
     velocities, centroid_sine = mean_track_frame(positions, velocities, centroid_sine,
                                                  smoothing_time, sweep_interval)
     sweeps = len(positions)
     coarse = np.unique(np.linspace(0, sweeps - 1, min(samples, sweeps)).round().astype(int))
     direction = np.empty_like(pixels, dtype=float)
+    line_of_sight = np.empty_like(pixels, dtype=float)
     centre = np.empty(len(pixels))
     for start in range(0, len(pixels), chunk):
         block = pixels[start:start + chunk]
@@ -333,10 +355,11 @@ def aspect_frames(pixels: NDArray, positions: NDArray, velocities: NDArray,
         velocity = velocities[low] + fraction * (velocities[high] - velocities[low])
         unit = velocity / np.linalg.norm(velocity, axis=-1, keepdims=True)
         sight = block - position
+        sight /= np.linalg.norm(sight, axis=-1, keepdims=True)
         direction[start:start + chunk] = unit
-        centre[start:start + chunk] = (np.einsum("pi,pi->p", sight, unit)
-                                       / np.linalg.norm(sight, axis=-1))
-    return direction, centre
+        line_of_sight[start:start + chunk] = sight
+        centre[start:start + chunk] = np.einsum("pi,pi->p", sight, unit)
+    return direction, centre, line_of_sight
 
 
 def median_sweep_interval(positions: ArrayLike, velocities: ArrayLike) -> float:
