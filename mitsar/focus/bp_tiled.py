@@ -56,6 +56,7 @@ profiles dominates the error against an interpolation-free float64 sum, as in th
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -234,14 +235,16 @@ def backproject_tiled(profile: NDArray, frequency: NDArray, radar: Radar, pixels
                       sweep_range: tuple[NDArray, NDArray] | None = None,
                       aspect: tuple[NDArray, NDArray] | None = None,
                       row_length: int | None = None,
-                      interpolation: str = DEFAULT_INTERPOLATION
+                      interpolation: str = DEFAULT_INTERPOLATION,
+                      while_running: Callable[[], Any] | None = None
                       ) -> tuple[NDArray, NDArray, dict]:
     """Back-projection by lanes of neighbouring pixels (module docstring).
 
     Parameters as :func:`mitsar.focus.backprojection.backproject_drjit` (monostatic only),
     plus ``row_length``: pixels per row of the grid the pixels come from in row-major order
     (the lanes follow rows), None for points in no particular layout, and ``interpolation``
-    of the profiles (:mod:`mitsar.focus.interpolation`).
+    of the profiles (:mod:`mitsar.focus.interpolation`); ``while_running``, optional host work
+    (no Dr.Jit) run while the kernel runs asynchronously, its result in ``info["while_running"]``.
 
     Returns
     -------
@@ -256,6 +259,7 @@ def backproject_tiled(profile: NDArray, frequency: NDArray, radar: Radar, pixels
     info = {"lane_pixels": 0, "exact_pixels": count, "row_step": 0,
             "predicted_phase_error": 0.0}
     if count == 0:
+        info["while_running"] = while_running() if while_running else None
         return np.zeros(0, dtype=complex), np.zeros(0), info
     sweeps = profile.shape[0]
     if sweep_range is None:
@@ -278,6 +282,7 @@ def backproject_tiled(profile: NDArray, frequency: NDArray, radar: Radar, pixels
                                            velocities, centroid_sine, half_width, window,
                                            motion_correction, sweep_range, aspect,
                                            interpolation=interpolation)
+        info["while_running"] = while_running() if while_running else None
         return values, totals, info
     weighted_sum = np.zeros(count, dtype=complex)
     total = np.zeros(count)
@@ -294,11 +299,12 @@ def backproject_tiled(profile: NDArray, frequency: NDArray, radar: Radar, pixels
         frames = np.column_stack([aspect[0], aspect[1]])[rows]
     reach = float(np.abs(offsets).max(initial=0.0)) * math.sqrt(3)  # pixel to lane centre
     checked = not _lookups_inside(frequency, radar, centre[good], positions, velocities, reach)
-    sums, totals = _run_lanes(profile, frequency, radar, centre[good][order],
-                              offsets[good][order] if step is None else step, lane_first[order],
-                              lane_end[order], frames, positions, velocities, centroid_sine,
-                              half_width, window, motion_correction, checked,
-                              groups.shape[1], interpolation)
+    sums, totals, done = _run_lanes(profile, frequency, radar, centre[good][order],
+                                    offsets[good][order] if step is None else step,
+                                    lane_first[order], lane_end[order], frames, positions,
+                                    velocities, centroid_sine, half_width, window,
+                                    motion_correction, checked, groups.shape[1], interpolation,
+                                    while_running)
     keep = valid.ravel()
     weighted_sum[lanes.ravel()[keep]] = sums.ravel()[keep]
     total[lanes.ravel()[keep]] = totals.ravel()[keep]
@@ -314,7 +320,8 @@ def backproject_tiled(profile: NDArray, frequency: NDArray, radar: Radar, pixels
     return weighted_sum, total, {
         "lane_pixels": int(groups.shape[1]), "exact_pixels": int(len(rest)),
         "row_step": int(step is not None),
-        "predicted_phase_error": float(top_wavenumber * error[good].max())}
+        "predicted_phase_error": float(top_wavenumber * error[good].max()),
+        "while_running": done}
 
 
 SWEEP_PARTS = 8
@@ -331,8 +338,10 @@ def _run_lanes(profile: NDArray, frequency: NDArray, radar: Radar, centre: NDArr
                frames: NDArray | None, positions: NDArray, velocities: NDArray,
                centroid_sine: NDArray, half_width: float, window: NDArray,
                motion_correction: bool, checked: bool, size: int,
-               interpolation: str = DEFAULT_INTERPOLATION) -> tuple[NDArray, NDArray]:
-    """The Dr.Jit kernel over lanes: sums (L, G) complex and weight totals (L, G).
+               interpolation: str = DEFAULT_INTERPOLATION,
+               while_running: Callable[[], Any] | None = None) -> tuple:
+    """The Dr.Jit kernel over lanes: sums (L, G) complex, weight totals (L, G) and the result
+    of ``while_running`` (called once the kernel is launched, None if not given).
 
     ``offsets``: (L, G, 3) pixel offsets, or the row step (3,) of regular lanes. A lane's
     sweeps run in one kernel lane per part of :data:`SWEEP_PARTS` that they touch; the parts
@@ -380,12 +389,13 @@ def _run_lanes(profile: NDArray, frequency: NDArray, radar: Radar, centre: NDArr
     first = jit_array(UInt32, np.concatenate([bounds[:-1].ravel(), padding]), np.uint32)
     end = jit_array(UInt32, np.concatenate([bounds[1:].ravel(), padding]), np.uint32)
     result = lane_loop(lane, first, end, sweep_arrays, pairs, constants, width)
-    dr.eval(*result)
+    dr.eval(*result)  # launched: the LLVM backend runs it while the host goes on
+    done = while_running() if while_running else None
     # the parts of every lane summed in float64, one accumulator at a time (no big copies)
     parts = np.stack([np.add.reduce(np.asarray(r)[:lanes * splits].reshape(splits, lanes),
                                     axis=0, dtype=np.float64)
                       for r in result]).reshape(size, 3, lanes)
-    return (parts[:, 0] + 1j * parts[:, 1]).T, parts[:, 2].T
+    return (parts[:, 0] + 1j * parts[:, 1]).T, parts[:, 2].T, done
 
 
 def lane_loop(lane: dict, first: Any, end: Any, sweep_arrays: list, pairs: Any,

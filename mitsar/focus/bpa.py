@@ -128,6 +128,7 @@ def focus_bpa(raw: xr.Dataset, pixels: NDArray, *, half_width: float, window: st
     # (aperture.aspect_frames); the whole beam keeps every sweep that sees the pixel
     aspect = None
     kernel = {"bp_kernel": "numpy" if backend == "numpy" else "exact"}
+    weights = None
     how = {"interpolation": range_interpolation}
     if bp.band_selection == "pixel" and not bp.straight and half_width < bp.beam_half_width:
         aspect = aspect_frames(pixels, positions, bp.velocities, bp.centroid)
@@ -146,11 +147,16 @@ def focus_bpa(raw: xr.Dataset, pixels: NDArray, *, half_width: float, window: st
         # By pixel groups (bp_tiled) on the CPU; on a GPU the exact kernel is the faster one
         # (1.6-1.9x the groups on an H100, docs/gpu.md §6), and a bistatic channel needs it.
         if bp.receivers is None and backend_name() != "cuda":
+            # the aperture weights (host work) while the last chunk's kernel runs
             tiled = [backproject_tiled(*arguments, pixels[c], *common,
                                        sweep_range=_rows(ranges, c), aspect=_rows(aspect, c),
-                                       row_length=row_length, **how)
+                                       row_length=row_length, **how,
+                                       while_running=None if c.stop < len(pixels) else
+                                       lambda: aperture_weights(bp, raw, pixels, half_width,
+                                                                coordinates))
                      for c in chunks]
             results = [t[:2] for t in tiled]
+            weights = tiled[-1][2]["while_running"] if tiled else None
             exact = sum(t[2]["exact_pixels"] for t in tiled)
             kernel = {"bp_kernel": "tiled" if exact == 0 else "tiled+exact",
                       "bp_lane_pixels": max(t[2]["lane_pixels"] for t in tiled)}
@@ -162,8 +168,9 @@ def focus_bpa(raw: xr.Dataset, pixels: NDArray, *, half_width: float, window: st
     # 4. normalisation by the full-aperture weight
     sums, totals = zip(*results, strict=True)
     values, coverage = normalise(bp, raw, pixels, np.concatenate(sums), np.concatenate(totals),
-                                 half_width, aperture_weights(bp, raw, pixels, half_width,
-                                                              coordinates))
+                                 half_width, weights or aperture_weights(bp, raw, pixels,
+                                                                         half_width,
+                                                                         coordinates))
     return values, coverage, {"band_selection": bp.band_selection, **kernel,
                               "range_upsample": int(range_upsample),
                               "range_interpolation": range_interpolation}
