@@ -67,6 +67,24 @@ def test_planar_array_with_beams_is_the_hand_written_elements():
             == pytest.approx(2 * WAVELENGTH, rel=1e-15))
 
 
+def test_planar_grid_is_the_hand_written_grid_and_its_virtual_array_is_filled():
+    """A 4 x 2 receive grid lambda/2 apart along body z and y (j_u fastest) with 2 x 1
+    transmitters at the default spacing (4 lambda/2 along z): the hand-written positions, and
+    the virtual array t_i + r_j a filled 8 x 2 grid lambda/2 apart."""
+    d = WAVELENGTH / 2
+    radar = _radar({"array": {"receivers": [4, 2], "transmitters": [2, 1],
+                              "cross_axis": [0, 1, 0]}})
+    np.testing.assert_allclose(radar.receivers, [(0, v * d, u * d) for v in range(2)
+                                                 for u in range(4)], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(radar.transmitters, [(0, 0, 0), (0, 0, 4 * d)], rtol=0,
+                               atol=1e-15)
+    virtual = radar.virtual_phase_centres()
+    cells = {(round(y / d), round(z / d)) for _, y, z in virtual}
+    assert cells == {(v, u) for v in range(2) for u in range(8)} and len(virtual) == 16
+    assert radar == mitsar.Radar.array(UniformArray(receivers=(4, 2), transmitters=(2, 1),
+                                                    cross_axis=(0, 1, 0)))
+
+
 def test_array_table_round_trips_through_an_experiment_file(tmp_path):
     """``[radar.array]`` in a TOML file gives ``Radar.array``'s radar; the recorded
     configuration (lists of phase centres, element tables) loads back to the same radar."""
@@ -141,6 +159,15 @@ def test_bundled_mimo_examples_lift_the_target_to_its_height(name):
     ({"array": {"receivers": 40, "transmitters": 2}}, r"radar\.array\.transmitters"),
     ({"array": {"receivers": 2, "transmitters": 2}, "ping_pong": True},
      r"radar\.array\.transmitters"),
+    ({"array": {"receivers": [4, 2]}}, r"radar\.array\.cross_axis'.*second direction"),
+    ({"array": {"receivers": [4, 2], "cross_axis": [0, 0, 2]}},
+     r"radar\.array\.cross_axis'.*not parallel"),
+    ({"array": {"receivers": [2, 2], "cross_axis": [0, 0.17, 0.98]}},
+     r"radar\.array\.spacing'.*0\.25 wave"),  # 10 deg apart: neighbours 0.09 lambda apart
+    ({"array": {"receivers": [9, 8], "cross_axis": [0, 1, 0]}}, r"radar\.array\.receivers"),
+    ({"array": {"receivers": [2, 0]}}, r"radar\.array\.receivers"),
+    ({"array": {"receivers": 2.5}}, r"radar\.array\.receivers"),
+    ({"array": {"receivers": 2, "spacing": [0.002, -0.001]}}, r"radar\.array\.spacing"),
 ])
 def test_ambiguous_or_unbuildable_arrays_are_refused_naming_the_key(table, key):
     with pytest.raises(ParameterError, match=key):

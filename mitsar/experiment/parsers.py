@@ -104,12 +104,13 @@ def _array(t: Table) -> dict[str, Any] | None:
     a = t.table("array")
     if a is None:
         return None
-    fields: dict[str, Any] = {"receivers": a.integer("receivers", ge=1),
-                              "transmitters": a.integer("transmitters", None, ge=1)}
+    fields: dict[str, Any] = {"receivers": _count(a, "receivers", required=True),
+                              "transmitters": _count(a, "transmitters", required=False)}
     for name in ("spacing", "transmitter_spacing"):
-        fields[name] = a.number(name, None, unit="m", gt=0)
-        fields[f"{name}_wavelengths"] = a.number(f"{name}_wavelengths", None, gt=0)
-    for name in ("axis", "transmitter_axis"):
+        for key, unit in ((name, "m"), (f"{name}_wavelengths", "")):
+            fields[key] = (a.vector(key, 2, None, unit=unit) if isinstance(a.data.get(key), list)
+                           else a.number(key, None, unit=unit, gt=0))
+    for name in ("axis", "cross_axis", "transmitter_axis", "transmitter_cross_axis"):
         fields[name] = a.vector(name, 3, None, unit="body frame")
     for name in ("origin", "transmitter_origin"):
         fields[name] = a.vector(name, 3, None, unit="m, body frame")
@@ -120,6 +121,24 @@ def _array(t: Table) -> dict[str, Any] | None:
             beam.finish()
     a.finish()
     return {k: v for k, v in fields.items() if v is not None}
+
+
+def _count(t: Table, name: str, required: bool) -> int | tuple[int, int] | None:
+    """An element count: an integer, or ``[N_u, N_v]`` of a planar grid (their bounds are
+    :class:`mitsar.model.arrays.UniformArray`'s)."""
+    expected = "an integer >= 1, or an array of two integers [N_u, N_v] (a planar grid)"
+    t.seen.add(name)
+    if name not in t.data:
+        if required:
+            raise t.error(name, f"{expected} (required key)", "nothing")
+        return None
+    value = t.data[name]
+    items = value if isinstance(value, list) else [value]
+    if len(items) not in (1, 2) or isinstance(value, list) and len(items) != 2 or any(
+            isinstance(v, bool) or not isinstance(v, int) or v < 1 for v in items):
+        raise t.error(name, expected, value)
+    t.out[name] = value
+    return tuple(items) if isinstance(value, list) else value
 
 
 def _beam_fields(t: Table) -> dict[str, Any]:
