@@ -64,6 +64,7 @@ from mitsar.plugins.integrators.radar.constants import (
     chunk_bounds,
     chunk_step_arrays,
     lane_pairs,
+    padded_lanes,
     shared_probe_arrays,
     visibility_block_arrays,
 )
@@ -99,7 +100,7 @@ def candidates(scatterers: ScattererArrays, constants: Constants, count: int
     ``|e_s - e_mid| <= turn`` (the frame's largest column change).
     """
     f32 = mi.Float
-    m = dr.arange(mi.UInt32, count)
+    m, valid = padded_lanes(count)
     t = constants.f32("mid_time")
     o = mi.Vector3f(*(_moved(dr.gather(f32, position, m), velocity, m, t, scatterers.static)
                       - constants.f32(f"mid_p{a}")
@@ -109,9 +110,9 @@ def candidates(scatterers: ScattererArrays, constants: Constants, count: int
     r = dr.norm(o)
     u_az, u_el, cos_b = frame_sines(o / r, lambda i, j: constants.f32(f"mid_f{i}{j}"))
     margin = 2.0 * constants.f32("mid_disp") / r + constants.f32("mid_turn") + 1e-4
-    active = ((cos_b > -margin) & (dr.abs(u_az) < constants.f32("cull_az") + margin)
-              & (dr.abs(u_el) < constants.f32("cull_el") + margin)) \
-        | (r <= 2.0 * constants.f32("mid_disp"))
+    active = valid & (((cos_b > -margin) & (dr.abs(u_az) < constants.f32("cull_az") + margin)
+                       & (dr.abs(u_el) < constants.f32("cull_el") + margin))
+                      | (r <= 2.0 * constants.f32("mid_disp")))
     return (dr.compress(active), dr.min(dr.select(active, r, dr.inf)),
             dr.max(dr.select(active, r, 0.0)))
 
@@ -123,8 +124,9 @@ def cull(scatterers: ScattererArrays, sweep_arrays: SweepArrays, constants: Cons
     Cheap float32 geometry over every lane; only the surviving lanes (a small fraction for a
     room: the beam) pay for shadow rays, float64 phase and the scatter (``dr.compress``).
     """
-    s, m = lane_pairs(dr.arange(mi.UInt32, lanes), constants, found)
-    return dr.compress(_in_beam(constants, scatterers, sweep_arrays, s, m))
+    lane, valid = padded_lanes(lanes)
+    s, m = lane_pairs(lane, constants, found)
+    return dr.compress(valid & _in_beam(constants, scatterers, sweep_arrays, s, m))
 
 
 def _in_beam(constants: Constants, scatterers: ScattererArrays, sweep_arrays: SweepArrays,
@@ -210,13 +212,14 @@ def probe(scene: Any, scatterers: ScattererArrays, sweep_arrays: SweepArrays,
     :func:`trace` at ``local * blocks + block`` (docs/integrator.md §"Visibility reuse").
     """
     u32 = mi.UInt32
-    idx = dr.arange(u32, width * blocks)
+    idx, valid = padded_lanes(width * blocks)  # padding: code 0, never read
     local = idx // constants["blocks"]
     block = idx - local * constants["blocks"]
     m = dr.gather(u32, found, local + constants["first"])
-    return _block_visibility(scene, scatterers, sweep_arrays, m,
-                             dr.gather(u32, sweep_arrays.blocks.first_sweep, block),
-                             dr.gather(u32, sweep_arrays.blocks.last_sweep, block))
+    return dr.select(valid, _block_visibility(
+        scene, scatterers, sweep_arrays, m,
+        dr.gather(u32, sweep_arrays.blocks.first_sweep, block),
+        dr.gather(u32, sweep_arrays.blocks.last_sweep, block)), 0)
 
 
 def shared_probe(scene: Any, scatterers: ScattererArrays, sweep_arrays: SweepArrays,
@@ -229,20 +232,20 @@ def shared_probe(scene: Any, scatterers: ScattererArrays, sweep_arrays: SweepArr
     rays (lanes probe-slowest, ``constants["width"]`` candidates each), then the codes."""
     u32 = mi.UInt32
     shared = sweep_arrays.probes
-    idx = dr.arange(u32, width * probes)
+    idx, _ = padded_lanes(width * probes)  # the extra rays repeat the last one, never read
     probe_index = idx // constants["width"]
     m = dr.gather(u32, found, idx - probe_index * constants["width"] + constants["first"])
     seen = u32(dr.select(_visible(scene, scatterers, sweep_arrays,
                                   dr.gather(u32, shared.sweep, probe_index), m, mi.Bool(True)),
                          1, 0))
     dr.eval(seen)
-    idx = dr.arange(u32, width * blocks)
+    idx, valid = padded_lanes(width * blocks)  # padding: code 0, never read
     local = idx // constants["blocks"]
     block = idx - local * constants["blocks"]
-    return (dr.gather(u32, seen, dr.gather(u32, shared.first, block) * constants["width"]
-                      + local)
-            + dr.gather(u32, seen, dr.gather(u32, shared.end, block) * constants["width"]
-                        + local))
+    return dr.select(valid, dr.gather(u32, seen, dr.gather(u32, shared.first, block)
+                                      * constants["width"] + local)
+                     + dr.gather(u32, seen, dr.gather(u32, shared.end, block)
+                                 * constants["width"] + local), 0)
 
 
 def trace(scene: Any, scatterers: ScattererArrays, sweep_arrays: SweepArrays,
@@ -256,6 +259,9 @@ def trace(scene: Any, scatterers: ScattererArrays, sweep_arrays: SweepArrays,
     (hidden) at both ends of their block are taken as seen (hidden) without a ray, the others
     cast their own; without it every lane casts its own shadow ray.
     """
+    position, valid = padded_lanes(dr.width(lanes))
+    if dr.width(position) != dr.width(lanes):
+        lanes = dr.gather(mi.UInt32, lanes, position)
     s, m = lane_pairs(lanes, constants, found)
     code = None
     if visibility is not None:
@@ -263,7 +269,7 @@ def trace(scene: Any, scatterers: ScattererArrays, sweep_arrays: SweepArrays,
         code = dr.gather(mi.UInt32, visibility,
                          local * constants["blocks"]
                          + dr.gather(mi.UInt32, sweep_arrays.blocks.block_of, s))
-    _contribute(scene, scatterers, sweep_arrays, constants, s, m, mi.Bool(True), code, re, im)
+    _contribute(scene, scatterers, sweep_arrays, constants, s, m, valid, code, re, im)
 
 
 def _block_visibility(scene: Any, scatterers: ScattererArrays, sweep_arrays: SweepArrays,
@@ -511,12 +517,14 @@ def split_trace(scene: Any, scatterers: ScattererArrays, sweep_arrays: SweepArra
     in the beam and the bin grid. ``sweeps`` (the chunk's length, ``constants["sweeps"]``)
     lanes per pair bound its block. Returns the number of lanes in the beam and the bin
     grid."""
-    lanes = dr.width(split) * sweeps
-    idx = dr.arange(mi.UInt32, lanes)
+    idx, valid = padded_lanes(dr.width(split) * sweeps)
     s, m, inside = _split_lanes(sweep_arrays.blocks, constants, found, split, idx)
-    kept = dr.compress(inside & _in_beam(constants, scatterers, sweep_arrays, s, m))
-    if dr.width(kept):
+    kept = dr.compress(valid & inside & _in_beam(constants, scatterers, sweep_arrays, s, m))
+    count = dr.width(kept)
+    if count:
+        position, valid = padded_lanes(count)
+        if dr.width(position) != count:
+            kept = dr.gather(mi.UInt32, kept, position)
         s, m, _ = _split_lanes(sweep_arrays.blocks, constants, found, split, kept)
-        _contribute(scene, scatterers, sweep_arrays, constants, s, m, mi.Bool(True), None, re,
-                    im)
-    return dr.width(kept)
+        _contribute(scene, scatterers, sweep_arrays, constants, s, m, valid, None, re, im)
+    return count

@@ -32,6 +32,7 @@ from mitsar.plugins.integrators.radar.constants import (
     ScattererArrays,
     SweepArrays,
     VisibilityBlocks,
+    padded_lanes,
 )
 from mitsar.plugins.integrators.radar.receivers import horner, receiver_offsets
 from mitsar.plugins.ops import DRJIT_OPS, sincos_turns
@@ -184,7 +185,8 @@ def deposit_runs(blocks: VisibilityBlocks, constants: Constants, visibility: Any
     are not (``irregular``: seen blocks separated by hidden or split ones). A launch without
     irregular candidates lets :func:`block_trace` test the run with two 32-bit compares."""
     u32 = mi.UInt32
-    local = dr.arange(u32, width)
+    local, _ = padded_lanes(width)  # the extra lanes repeat the last (block_trace's width)
+    lanes = dr.width(local)
 
     def body(b: Any, first: Any, end: Any, before: Any, irregular: Any) -> tuple:
         seen = dr.gather(u32, visibility, local * constants["blocks"] + b) == 2
@@ -194,8 +196,8 @@ def deposit_runs(blocks: VisibilityBlocks, constants: Constants, visibility: Any
         end = dr.select(seen, dr.gather(u32, blocks.last_sweep, b) + 1, end)
         return b + 1, first, end, seen, irregular
 
-    state = (dr.zeros(u32, width), dr.zeros(u32, width), dr.zeros(u32, width),
-             dr.full(mi.Bool, False, width), dr.full(mi.Bool, False, width))
+    state = (dr.zeros(u32, lanes), dr.zeros(u32, lanes), dr.zeros(u32, lanes),
+             dr.full(mi.Bool, False, lanes), dr.full(mi.Bool, False, lanes))
     _, first, end, _, irregular = dr.while_loop(
         state, lambda b, *rest: b < constants["blocks"], body)
     return first, end, irregular
@@ -272,7 +274,8 @@ def block_trace(scatterers: ScattererArrays, sweep_arrays: SweepArrays, constant
     """
     f64, f32, u32, i32, u64 = mi.Float64, mi.Float, mi.UInt32, mi.Int32, mi.UInt64
     packet = _packet_type(units is not None)
-    local = dr.arange(u32, width)
+    local, valid = padded_lanes(width)  # the extra lanes run no sweep
+    padded, width = dr.width(local) != width, dr.width(local)
     m = dr.gather(u32, found, local + constants["first"])
 
     # 1. The sweeps the lane deposits: one run (runs given) or a two-word mask of its blocks
@@ -424,6 +427,8 @@ def block_trace(scatterers: ScattererArrays, sweep_arrays: SweepArrays, constant
         first = u32(dr.clip(dr.floor(lo) - 1.0 + f32(anchor), 0.0, f32(sweeps)))
         end = u32(dr.clip(dr.ceil(hi) + 2.0 + f32(anchor), 0.0, f32(sweeps)))
     per_unit = dr.opaque(f32, 1.0 if units is None else units)  # per amplitude unit
+    if padded:
+        end = dr.select(valid, end, 0)
 
     def stored(value: Any) -> Any:
         """A deposit as the packets hold it: float32 as it is, or rounded to an int64 by the
@@ -602,9 +607,9 @@ def add_packets(packets: Any, constants: Constants, sweeps: int, width: int, re:
     are float32, a relative rounding of ~6e-8); float32 packets (``units=None``) a relative
     rounding of ~6e-8 sqrt(N) for N deposits: both far below the block kernel's other errors
     (docs/integrator.md §"Performance")."""
-    u32, f64 = mi.UInt32, mi.Float64
+    f64 = mi.Float64
     packet = _packet_type(units is not None)
-    idx = dr.arange(u32, receivers * sweeps * (width + 1))  # width + 1 bins per packet row
+    idx, valid = padded_lanes(receivers * sweeps * (width + 1))  # width + 1 bins per row
     row = idx // (constants["bin_width"] + 1)
     j = idx - row * (constants["bin_width"] + 1)
     flat = row * constants["bin_width"] + j  # packet (s, j)
@@ -621,4 +626,5 @@ def add_packets(packets: Any, constants: Constants, sweeps: int, width: int, re:
             value = f64(own[part]) + f64(below[part + 2])
         else:  # exact integer sum, then one conversion
             value = f64(own[part] + below[part + 2]) * (1.0 / units)
-        dr.scatter_reduce(dr.ReduceOp.Add, out, value, target, mode=dr.ReduceMode.NoConflicts)
+        dr.scatter_reduce(dr.ReduceOp.Add, out, value, target, valid,
+                          mode=dr.ReduceMode.NoConflicts)

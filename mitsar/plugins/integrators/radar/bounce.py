@@ -43,6 +43,7 @@ from mitsar.plugins.integrators.radar.constants import (
     Frame,
     MultipathSweepArrays,
     lane_pairs,
+    padded_lanes,
 )
 from mitsar.plugins.integrators.radar.deposit import deposit
 from mitsar.plugins.kind import PluginKind, plugin_kind
@@ -165,6 +166,9 @@ def capture_deposit(constants: Constants, re: Any, im: Any, sweep_arrays: Multip
     """Deposit the captured lanes ``chosen``: image-method amplitude (capture-weighted), delay
     ``L/c`` with ``L = |rx - img|`` in float64, Doppler of the image geometry."""
     f64, f32 = mi.Float64, mi.Float
+    position, valid = padded_lanes(dr.width(chosen))  # the extra lanes deposit nothing
+    if dr.width(position) != dr.width(chosen):
+        chosen = dr.gather(mi.UInt32, chosen, position)
     s = dr.gather(mi.UInt32, s_all, chosen)
 
     def gs(array: Any, kind: type = f32) -> Any:
@@ -191,8 +195,7 @@ def capture_deposit(constants: Constants, re: Any, im: Any, sweep_arrays: Multip
     velocity = sweep_arrays.velocity
     rate = dr.dot(wn, mi.Vector3f(gs(velocity[0]), gs(velocity[1]), gs(velocity[2])) - v_img)
     deposit(constants, re, im, _order_base(constants, s, order), 0.5 * length, 0.5 * f64(rate),
-            amp, None,
-            dr.full(mi.Bool, True, dr.width(chosen)))
+            amp, None, dr.full(mi.Bool, True, dr.width(chosen)) & valid)
 
 
 def ghost_deposit(scene: Any, table: ShapeTable, constants: Constants, re: Any, im: Any, s: Any,
@@ -259,7 +262,9 @@ def launch(scene: Any, table: ShapeTable, rays: RayArrays, sweep_arrays: Multipa
     ``stats`` counts ``segments`` and ``captures``.
     """
     f64, f32, u32 = mi.Float64, mi.Float, mi.UInt32
-    s, i = lane_pairs(dr.arange(u32, lanes), constants, ray_ids)
+    lane, valid = padded_lanes(lanes)  # the extra lanes are never alive
+    traced, lanes = lanes, dr.width(lane)
+    s, i = lane_pairs(lane, constants, ray_ids)
 
     def gs(array: Any, kind: type = f32) -> Any:
         return dr.gather(kind, array, s)
@@ -281,7 +286,7 @@ def launch(scene: Any, table: ShapeTable, rays: RayArrays, sweep_arrays: Multipa
     img = [gs(c, f64) for c in sweep_arrays.transmitter]
     o = mi.Point3f(*(gs(c) for c in sweep_arrays.transmitter32))
     field = dr.full(f32, 1.0, lanes)
-    alive = z > 0.0
+    alive = (z > 0.0) & valid
     counts = dr.zeros(u32, lanes)  # segments + 2^16 x captures of the lane (work counters)
 
     for kk in range(depth):
@@ -311,16 +316,17 @@ def launch(scene: Any, table: ShapeTable, rays: RayArrays, sweep_arrays: Multipa
                                 field, amp_tx,
                                 weight, kk)
             counts = counts + dr.select(ok, 65536, 0)
-        if log is not None:
-            log.append({"origin": np.array(o, dtype=np.float64).T,
-                        "direction": np.array(d, dtype=np.float64).T,
-                        "t_hit": np.array(t_hit, dtype=np.float64),
-                        "hit": np.array(hit, dtype=bool),
-                        "alive": np.array(alive, dtype=bool),
-                        "field": np.array(field, dtype=np.float64),
-                        "pattern": np.array(amp_tx, dtype=np.float64) ** 2,
-                        "image": np.array([np.array(c, dtype=np.float64) for c in img]).T,
-                        "captured": np.array(weight, dtype=np.float64)})
+        if log is not None:  # the traced lanes, not the padding
+            log.append({"origin": np.array(o, dtype=np.float64).T[:traced],
+                        "direction": np.array(d, dtype=np.float64).T[:traced],
+                        "t_hit": np.array(t_hit, dtype=np.float64)[:traced],
+                        "hit": np.array(hit, dtype=bool)[:traced],
+                        "alive": np.array(alive, dtype=bool)[:traced],
+                        "field": np.array(field, dtype=np.float64)[:traced],
+                        "pattern": np.array(amp_tx, dtype=np.float64)[:traced] ** 2,
+                        "image": np.array([np.array(c, dtype=np.float64)
+                                           for c in img]).T[:traced],
+                        "captured": np.array(weight, dtype=np.float64)[:traced]})
         last = kk == depth - 1
         if last and not ghosts:
             dr.eval(counts)

@@ -20,6 +20,7 @@ import mitsuba as mi
 import numpy as np
 from numpy.typing import NDArray
 
+from mitsar.backend import safe_width
 from mitsar.model.geometry.sweeps import SweepGeometry
 from mitsar.model.multipath import RaySet, multipath_amplitude_constant
 from mitsar.model.radar import Radar
@@ -176,6 +177,19 @@ def multipath_constants(radar: Radar, config: TraceOptions, backscatter: Constan
                slab_width=float(config.slab_width), ghost_cell_inv=2.0 / radar.wavelength,
                first=0, sweeps=1, blocks=1)
     return Constants(out, MULTIPATH_FLOATS)
+
+
+def padded_lanes(lanes: int) -> tuple[Any, Any]:
+    """Lane indices of a launch of ``lanes`` lanes, padded past the widths at which Dr.Jit
+    1.5's LLVM backend crashes (:func:`mitsar.backend.safe_width`, docs/reliability.md §5: at
+    most 15 extra lanes): ``(index, valid)``. The extra lanes repeat the last lane (their
+    index is clamped, so every gather stays in bounds) and are not ``valid``: the caller
+    masks their deposits, compressions and codes. Without padding, ``valid`` is True."""
+    width = safe_width(lanes)
+    index = dr.arange(mi.UInt32, width)
+    if width == lanes:
+        return index, mi.Bool(True)
+    return dr.minimum(index, lanes - 1), index < lanes
 
 
 def lane_pairs(lane: Any, constants: Constants, candidates: Any) -> tuple[Any, Any]:
