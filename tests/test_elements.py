@@ -216,3 +216,32 @@ def test_raw_products_carry_the_elements_through_netcdf(tmp_path):
     raw = _simulate(radar, normalized=True)
     mitsar.save(raw, tmp_path / "raw.nc")
     assert radar_of(mitsar.load(tmp_path / "raw.nc")) == radar
+
+
+@pytest.mark.parametrize(("transmit", "receive", "tolerance"), [
+    ((0.0, None), (3.0, None), 5e-5),     # equal beams 3 deg apart: measured 2e-6
+    ((0.0, None), (8.0, None), 1e-4),     # equal beams 8 deg apart: measured 4.5e-5
+    ((0.0, None), (3.0, 18.0), 1e-4),     # 9.1 and 18 deg beams: measured 4e-5
+    ((-2.0, 5.0), (4.0, 12.0), 1.5e-3),   # 5 and 12 deg beams 6 deg apart: measured 7e-4
+])
+def test_two_way_boresight_is_the_peak_of_the_two_way_pattern(transmit, receive, tolerance):
+    """The channel's two-way beam centre (the boresights weighted by 1/beta_az^2, the peak of
+    f_t f_r with each sinc to second order) against the peak of the exact product pattern
+    found by scanning the squint at the look's off-nadir angle: the along-track (Doppler)
+    component within ``tolerance`` in direction sine."""
+    from mitsar.model.elements import two_way_boresight
+
+    radar = mitsar.Radar()
+    widths = (radar.azimuth_beamwidth, radar.elevation_beamwidth)
+    t, r = (Element((0, 0, 0), off_nadir_deg=55.7, squint_deg=squint,
+                    azimuth_beamwidth_deg=width) for squint, width in (transmit, receive))
+    squints = np.radians(np.linspace(-15.0, 15.0, 30001))
+    theta = math.radians(55.7)
+    directions = np.stack([-np.sin(squints) * math.sin(theta),
+                           np.cos(squints) * math.sin(theta),
+                           np.full_like(squints, -math.cos(theta))], axis=-1)
+    sines = directions @ LOOK.antenna_to_body()
+    pattern = np.abs(element_field_pattern(*sines.T, element_beam(t, widths, LOOK))
+                     * element_field_pattern(*sines.T, element_beam(r, widths, LOOK)))
+    peak = directions[np.argmax(pattern)]
+    assert abs(two_way_boresight(t, r, widths, LOOK)[0] - peak[0]) < tolerance
