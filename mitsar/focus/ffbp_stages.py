@@ -27,7 +27,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mitsar.backend import drjit as dr  # imported when a kernel runs (LazyModule)
-from mitsar.backend import namespace_of
+from mitsar.backend import namespace_of, safe_width
 from mitsar.focus.backprojection import (
     carrier_turns,
     derotate,
@@ -207,13 +207,13 @@ def first_stage(stage: Stage, frame: dict[str, NDArray], tables: tuple, wavenumb
     constants, sweep_arrays, pairs = tables
     n_rho, n_alpha = stage.shape
     lanes = len(stage.first) * n_rho * n_alpha // LANE_NODES
-    lane = dr.arange(UInt32, lanes)
+    lane, keep, width = _padded_lanes(UInt32, lanes)
     jit = _jit_frame(stage, frame, types)
     j, rho, _, nodes = _lane_node(stage, jit, lane, LANE_NODES)
     first = dr.gather(UInt32, jit_array(UInt32, stage.first, np.uint32), j)
     end = dr.gather(UInt32, jit_array(UInt32, stage.end, np.uint32), j)
     pixels = [(*node, first, end) for node in nodes]
-    sums = pulse_loop(pixels, first, end, sweep_arrays, pairs, constants, lanes)
+    sums = pulse_loop(pixels, first, end, sweep_arrays, pairs, constants, width)
     turns = carrier_turns(rho, dr.opaque(Float64, wavenumber), dr.floor)
     sin_phase, cos_phase = dr.sincos(Float32(2 * np.pi) * Float32(turns))
     # One kernel for the loop: the scatters below would otherwise each re-run it.
@@ -223,8 +223,8 @@ def first_stage(stage: Stage, frame: dict[str, NDArray], tables: tuple, wavenumb
     for g in range(LANE_NODES):
         real, imag = derotate(sums[3 * g], sums[3 * g + 1], -sin_phase, cos_phase)
         index = lane * LANE_NODES + g
-        dr.scatter(values, _pack(real, imag), index)
-        dr.scatter(totals, sums[3 * g + 2], index)
+        dr.scatter(values, _pack(real, imag), index, keep)
+        dr.scatter(totals, sums[3 * g + 2], index, keep)
     dr.eval(values, totals)
     stage.values, stage.totals = values, totals
 
@@ -244,8 +244,9 @@ def merge_nodes(stage: Stage, parent: Stage, frame: dict[str, NDArray], children
     Float32, Float64, UInt32 = types.Float32, types.Float64, types.UInt32
     n_rho, n_alpha = parent.shape
     lanes = len(parent.first) * n_rho * n_alpha
+    lane, keep, _ = _padded_lanes(UInt32, lanes)
     jit = _jit_frame(parent, frame, types)
-    j, _, _, nodes = _lane_node(parent, jit, dr.arange(UInt32, lanes), 1)
+    j, _, _, nodes = _lane_node(parent, jit, lane, 1)
     point = [Float32(v) for v in nodes[0]]
     reference = [Float32(dr.gather(Float64, jit[key], j)) for key in ("cx", "cy", "cz")]
     first = dr.gather(UInt32, jit_array(UInt32, children[0], np.uint32), j)
@@ -253,9 +254,21 @@ def merge_nodes(stage: Stage, parent: Stage, frame: dict[str, NDArray], children
     real, imag, total = _merge_loop(point + reference, first, end, _child_data(stage),
                                     _tap_rows(stage.values), stage.totals,
                                     _scalars(stage, wavenumber), with_totals)
-    parent.values = _pack(real, imag)
-    parent.totals = total if with_totals else dr.zeros(Float32, 1)
+    parent.values = dr.zeros(types.UInt64, lanes)
+    dr.scatter(parent.values, _pack(real, imag), lane, keep)
+    parent.totals = dr.zeros(Float32, lanes if with_totals else 1)
+    if with_totals:
+        dr.scatter(parent.totals, total, lane, keep)
     dr.eval(parent.values, parent.totals)
+
+
+def _padded_lanes(uint32: type, lanes: int) -> tuple[Any, Any, int]:
+    """Lane indices of a kernel over ``lanes`` lanes launched at
+    :func:`mitsar.backend.safe_width` (past Dr.Jit 1.5's crashing widths): the extra lanes
+    repeat the last one, and ``keep`` masks their results out of the scatters."""
+    width = safe_width(lanes)
+    index = dr.arange(uint32, width)
+    return dr.minimum(index, lanes - 1), index < lanes, width
 
 
 def merge_points(stage: Stage, points: NDArray, first_child: NDArray, end_child: NDArray,
