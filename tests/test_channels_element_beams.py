@@ -120,3 +120,28 @@ def test_a_pair_looking_apart_shares_one_band_between_its_beams():
                                             normalized=True)
     with pytest.warns(MitsarWarning, match=r"channels \[0, 1\].*common processed band"):
         mitsar.focus(raw, "bpa", grid, azimuth_resolution=0.1)
+
+
+def test_a_selection_of_channels_gets_the_band_of_its_own_beams():
+    """``raw.isel(channel=[0, 2])`` of three receivers (squinted +4 deg, -4 deg, the look's):
+    the band is centred between the two selected beams (their mean Doppler to 1e-3), not the
+    three's, and the centroids are the full product's for those channels."""
+    radar = mitsar.Radar(receivers=[Element((0, 0, 0), off_nadir_deg=OFF_NADIR, squint_deg=4.0),
+                                    Element(BASELINE, off_nadir_deg=OFF_NADIR, squint_deg=-4.0),
+                                    (0.0, 0.0, 0.1)])
+    track = mitsar.Trajectory.linear(START, [SPEED, 0.0, 0.0], 0.8)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", MitsarWarning)
+        raw = mitsar.simulate_point_targets(radar, track, mitsar.Look(OFF_NADIR),
+                                            [mitsar.PointTarget([15.0, 8.0, 0.1])],
+                                            normalized=True)
+    grid = SlantGrid(along_track=0.2 + STEP * np.arange(-5, 6),
+                     slant_range=R0 + STEP * np.arange(-5, 6))
+    full = mitsar.focus(raw, "bpa", grid, azimuth_resolution=0.1)
+    pair = mitsar.focus(raw.isel(channel=[0, 2]), "bpa", grid, azimuth_resolution=0.1)
+    np.testing.assert_array_equal(pair["channel"].values, [0, 2])
+    np.testing.assert_allclose(pair["channel_doppler_centroid"].values,
+                               full["channel_doppler_centroid"].values[[0, 2]], rtol=1e-12)
+    centroids = pair["channel_doppler_centroid"].values
+    assert pair.attrs["processed_doppler_centroid"] == pytest.approx(centroids.mean(), rel=1e-3)
+    assert abs(full.attrs["processed_doppler_centroid"]) < 1e-9 * abs(centroids[0])

@@ -214,13 +214,17 @@ def common_band(raw: xr.Dataset) -> tuple[np.ndarray, np.ndarray, float]:
         (:meth:`mitsar.model.radar.Radar.channel_boresights`, body frame) rotated by each
         sweep's attitude.
     channel_centroids : ndarray, shape (channels,)
-        Each channel's two-way Doppler centroid ``2 v (v_hat . R b_k) / lambda`` [Hz], mean
+        Each of the product's channels' (its ``channel`` coordinate: the radar's channel
+        indices) two-way Doppler centroid ``2 v (v_hat . R b_k) / lambda`` [Hz], mean
         over the sweeps (positive looking ahead; :func:`mitsar.focus.motion.doppler_centroid`).
     centroid : float
         The common band's Doppler centroid [Hz], mean over the sweeps.
     """
     radar = radar_of(raw)
     beams = radar.channel_boresights(look_of(raw))
+    # the radar's channels this product holds (a selection such as raw.isel(channel=[i, j])
+    # keeps their indices as its coordinate)
+    beams = beams[np.asarray(raw["channel"].values, dtype=int)]
     common = beams.mean(axis=0)
     common /= np.linalg.norm(common)
     rotation = body_to_world(*np.asarray(raw["attitude"].values, dtype=float).T)
@@ -244,12 +248,13 @@ def _warn_beams_off_band(raw: xr.Dataset, centroids: np.ndarray, centroid: float
     if not speed > 0:
         return
     offsets = np.abs(centroids - centroid) * radar.wavelength / (2.0 * speed)
+    channels = np.asarray(raw["channel"].values, dtype=int)
     limits = np.array([0.5 * min(t.beamwidth_az, r.beamwidth_az)
-                       for t, r in radar.channel_beams(look_of(raw))])
+                       for t, r in radar.channel_beams(look_of(raw))])[channels]
     off = np.flatnonzero(offsets > limits)
     if off.size:
         warnings.warn(
-            f"focus: the two-way beams of channels {off.tolist()} are centred "
+            f"focus: the two-way beams of channels {channels[off].tolist()} are centred "
             f"{np.degrees(np.arcsin(np.minimum(offsets[off], 1.0))).round(1).tolist()} deg "
             "(along track) from the channels' common processed band, more than half their "
             "azimuth beamwidth: their images hold the band's scatterers on the beam's edge "
