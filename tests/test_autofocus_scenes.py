@@ -76,3 +76,21 @@ def test_lines_that_disagree_with_the_gradient_are_left_out():
     gradient, kept = _consensus_gradient(pairs, 0.3)
     assert kept.tolist() == [True, True, True, False, False]
     assert np.allclose(gradient, np.angle(np.exp(1j * np.diff(truth))), atol=1e-12)
+
+
+def test_entropy_non_convergence_names_the_bound_or_the_position():
+    """A kept stage stopped by its iteration bound, or kept over a finest stage that puts the
+    scatterers elsewhere: the warning says which, with the numbers."""
+    base = {"converged": False, "iterations": 90, "stages": [2, 8, 32, 128, 300],
+            "entropy_initial": 6.18, "entropy_final": 3.23, "kept_stage": 5}
+    options = EntropyOptions(iterations=20)
+    bound = {**base, "kept_stage_settled": False, "position_settled": True}
+    problems = assess("entropy", options, bound, 7.3, 5.7)
+    text = warning_text("entropy", options, bound, 7.3, 5.7, problems, True)
+    for part in ("did not converge", "stage 5 (kept) stopped at its bound of 20 iterations",
+                 "phase step below 0.02 rad", "corrected image is returned"):
+        assert part in text, part
+    moved = {**base, "kept_stage": 4, "kept_stage_settled": True, "position_settled": False,
+             "position_shift_cells": -0.74}
+    text = warning_text("entropy", options, moved, 7.3, 5.7, problems, True)
+    assert "0.74 resolution cells apart" in text and "stage 4" in text

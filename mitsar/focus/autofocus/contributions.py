@@ -120,18 +120,20 @@ def pulse_data(raw: xr.Dataset, settings: PulseSettings) -> PulseData:
                      settings)
 
 
-def _delays(data: PulseData, points: NDArray) -> tuple[NDArray, NDArray]:
-    """Two-way delay [s] and beat frequency [Hz] of points in every sweep, shape (S, P).
+def _delays(data: PulseData, points: NDArray, sweeps: NDArray | slice = slice(None)
+            ) -> tuple[NDArray, NDArray]:
+    """Two-way delay [s] and beat frequency [Hz] of points in the sweeps, shape (S, P).
 
     Dechirped data: ``tau = 2 R / c`` and ``f = K tau + f_c dtau/dt`` (Meta 2007 §II-B);
     referenced data: ``tau = 2 (R - R_ref,k) / c`` and ``f = K tau``.
     """
     radar = data.radar
+    positions = data.positions[sweeps]
     if data.reference_range is not None:
-        distance = np.linalg.norm(points[None, :, :] - data.positions[:, None, :], axis=-1)
-        delay = 2.0 * (distance - data.reference_range[:, None]) / SPEED_OF_LIGHT
+        distance = np.linalg.norm(points[None, :, :] - positions[:, None, :], axis=-1)
+        delay = 2.0 * (distance - data.reference_range[sweeps, None]) / SPEED_OF_LIGHT
         return delay, beat_frequency(delay, 0.0, radar.chirp_rate, radar.carrier_frequency)
-    slant_range, _, delay_rate = doppler_geometry(points, data.positions, data.velocities)
+    slant_range, _, delay_rate = doppler_geometry(points, positions, data.velocities[sweeps])
     delay = 2.0 * slant_range / SPEED_OF_LIGHT
     rate = delay_rate if data.settings.motion_correction else 0.0
     return delay, beat_frequency(delay, rate, radar.chirp_rate, radar.carrier_frequency)
@@ -143,15 +145,17 @@ def carrier_phase(data: PulseData, points: NDArray) -> NDArray:
     return 2 * np.pi * carrier_turns(delay, data.radar.carrier_frequency, np.floor)
 
 
-def contributions(data: PulseData, points: NDArray) -> NDArray:
-    """De-rotated profile values ``c_k(x)`` of points x in every sweep k, shape (S, P), complex.
+def contributions(data: PulseData, points: NDArray, sweeps: NDArray | slice = slice(None)
+                  ) -> NDArray:
+    """De-rotated profile values ``c_k(x)`` of points x in sweeps k, shape (S, P), complex.
 
     Steps 1-3 of :mod:`mitsar.focus.backprojection`: the profile is read (linear interpolation)
     at the point's beat frequency and de-rotated by ``exp(-j 2 pi f_c tau)``. Positions off the
     profile axis give 0 (dechirped data) or wrap round (referenced data, periodic profile).
+    ``sweeps`` (indices or a slice) limits the rows to those sweeps (default all).
     """
     points = np.asarray(points, dtype=float).reshape(-1, 3)
-    delay, beat = _delays(data, points)
+    delay, beat = _delays(data, points, sweeps)
     profile, frequency = data.profile, data.frequency
     bins = profile.shape[1]
     lower, fraction = profile_position(beat, frequency[0], frequency[1] - frequency[0],
@@ -165,7 +169,7 @@ def contributions(data: PulseData, points: NDArray) -> NDArray:
         inside = (lower >= 0) & (lower < bins - 1)
         lower = np.clip(lower, 0, bins - 2)
         upper = lower + 1
-    rows = np.arange(profile.shape[0])[:, None]
+    rows = np.arange(profile.shape[0])[sweeps][:, None]
     value = interpolate(profile[rows, lower], profile[rows, upper], fraction)
     phase = 2 * np.pi * carrier_turns(delay, data.radar.carrier_frequency, np.floor)
     real, imag = derotate(value.real, value.imag, np.sin(phase), np.cos(phase))

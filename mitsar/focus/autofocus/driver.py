@@ -29,7 +29,12 @@ from mitsar.focus.autofocus.contributions import (
 from mitsar.focus.autofocus.entropy import EntropyOptions, estimate_entropy, image_entropy
 from mitsar.focus.autofocus.lines import azimuth_lines
 from mitsar.focus.autofocus.pga import PGAOptions, estimate_pga
-from mitsar.focus.autofocus.selection import cell_pixels, chip_pixels, select_scatterers
+from mitsar.focus.autofocus.selection import (
+    cell_pixels,
+    chip_pixels,
+    chip_reach,
+    select_scatterers,
+)
 
 __all__ = ["METHODS", "make_options", "run_autofocus"]
 
@@ -128,10 +133,15 @@ def run_autofocus(raw: xr.Dataset, image: xr.Dataset,
             used = lines.history.shape[1]
             # the image chips around the scatterers, with the focuser's own aperture: the
             # stage whose estimate makes them sharpest is kept (estimate_entropy, check)
-            chips = positions[chip_pixels(magnitude.shape, chosen[:used], cell_pixels(image),
-                                          record.check_cells)]
-            check = contributions(data, chips) * aperture_weights(data, chips)
-            phase, info = estimate_entropy(lines, record, check)
+            chips = positions[chip_pixels(
+                magnitude.shape, chosen[:used], cell_pixels(image), record.check_cells,
+                chip_reach(image, record.check_cells, record.check_range_cells))]
+            weight = aperture_weights(data, chips)
+            seen = np.flatnonzero(weight.any(axis=1))  # sweeps in some chip's aperture
+            check = np.zeros(weight.shape, dtype=np.complex64)
+            check[seen] = contributions(data, chips, seen) * weight[seen]
+            phase, info = estimate_entropy(lines, record, check,
+                                           cell=image.attrs.get("azimuth_resolution"))
         info["scatterer_scr_db"] = [round(float(v), 2) for v in scr_db[:used]]
     corrected = refocus(correct_raw(raw, phase))
     before, after = image_entropy(values), image_entropy(corrected["image"].values)
@@ -180,6 +190,26 @@ def assess(method: str, record: PGAOptions | EntropyOptions, info: dict, before:
             "degraded": after > before + DEGRADED_NATS}
 
 
+def _entropy_reason(record: EntropyOptions, info: dict) -> str:
+    """Why a minimum-entropy estimate counts as not converged (its ``info``), in words."""
+    kept = int(info.get("kept_stage", 0))
+    stages = info.get("stages", [])
+    summary = (f"L-BFGS used {info['iterations']} iterations over {len(stages)} stages and the "
+               f"model entropy went {info['entropy_initial']:.3f} -> "
+               f"{info['entropy_final']:.3f} nats")
+    if kept == 0:
+        return f"no stage sharpened the image around the scatterers ({summary})"
+    if not info.get("position_settled", True):
+        return (f"stage {kept} (kept: the sharpest image around the scatterers) and the finest "
+                f"stage put the scatterers {abs(info['position_shift_cells']):.2f} resolution "
+                f"cells apart, so where they are is uncertain by that much ({summary})")
+    if not info.get("kept_stage_settled", True):
+        return (f"stage {kept} (kept) stopped at its bound of {record.iterations} iterations "
+                f"before its entropy change fell below {record.tolerance:g} (relative) and its "
+                f"phase step below {record.phase_tolerance:g} rad ({summary})")
+    return summary
+
+
 def warning_text(method: str, record: PGAOptions | EntropyOptions, info: dict, before: float,
                  after: float, problems: dict[str, bool], applied: bool) -> str | None:
     """The :class:`~mitsar.errors.MitsarWarning` of an autofocus that did not converge or
@@ -195,9 +225,7 @@ def warning_text(method: str, record: PGAOptions | EntropyOptions, info: dict, b
                      f"entropy {info.get('line_entropy_initial', float('nan')):.3f} -> "
                      f"{info.get('line_entropy_final', float('nan')):.3f} nats) was used")
     elif problems["not_converged"]:
-        parts.append(f"did not converge: L-BFGS used {info['iterations']} iterations over "
-                     f"{len(info['stages'])} stages and the model entropy went "
-                     f"{info['entropy_initial']:.3f} -> {info['entropy_final']:.3f} nats")
+        parts.append("did not converge: " + _entropy_reason(record, info))
     if problems["degraded"]:
         parts.append(f"made the image worse (entropy {before:.3f} -> {after:.3f} nats)")
     returned = ("the corrected image is returned (check it: its scatterers may be shifted or "

@@ -32,7 +32,7 @@ from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import NDArray
 from scipy import ndimage
 
-__all__ = ["cell_pixels", "chip_pixels", "select_scatterers"]
+__all__ = ["cell_pixels", "chip_pixels", "chip_reach", "select_scatterers"]
 
 
 def cell_pixels(image: xr.Dataset) -> tuple[float, float]:
@@ -109,8 +109,32 @@ def select_scatterers(magnitude: NDArray, count: int, dynamic_range_db: float,
     return candidates[order], scr_db[order]
 
 
+def chip_reach(image: xr.Dataset, azimuth_cells: float, range_cells: float
+               ) -> tuple[float, float] | None:
+    """Half size of a chip along the image's two dims, in pixels, for a box of
+    ``+- azimuth_cells`` resolution cells along the image's azimuth axis and ``+- range_cells``
+    along its range axis (``azimuth_resolution`` / ``range_resolution`` and axes as
+    :func:`cell_pixels`): along dim i, ``(A rho_a |a_a,i| + R rho_r |a_r,i|) / spacing_i``.
+    None when the product does not carry them.
+
+    A phase error per sweep does not change the range response (docs/autofocus.md, error
+    model), so chips that judge a correction need a range extent of about a cell only.
+    """
+    dims = image["image"].dims[-2:]
+    try:
+        spacing = [abs(float(image[d].values[1] - image[d].values[0])) for d in dims]
+        rho_r = float(image.attrs["range_resolution"])
+        rho_a = float(image.attrs["azimuth_resolution"])
+        a_r = np.abs(np.asarray(image.attrs["range_axis"], dtype=float)[:2])
+        a_a = np.abs(np.asarray(image.attrs["azimuth_axis"], dtype=float)[:2])
+    except (KeyError, IndexError, TypeError, ValueError):
+        return None
+    reach = azimuth_cells * rho_a * a_a + range_cells * rho_r * a_r
+    return tuple(float(r / s) if s > 0 else 0.0 for r, s in zip(reach, spacing, strict=True))
+
+
 def chip_pixels(shape: tuple[int, int], centres: NDArray, cells: tuple[float, float],
-                half_cells: float) -> NDArray:
+                half_cells: float, reach: tuple[float, float] | None = None) -> NDArray:
     """Flat indices of pixels within ``+- half_cells`` resolution cells of the centres.
 
     Taken every ``floor(cells / 2)`` pixels along each dim (about two samples a resolution
@@ -126,13 +150,17 @@ def chip_pixels(shape: tuple[int, int], centres: NDArray, cells: tuple[float, fl
         Pixels per resolution cell along the two dims (:func:`cell_pixels`).
     half_cells : float
         Half size of a chip, resolution cells.
+    reach : (float, float), optional
+        Half size along the two dims in pixels (:func:`chip_reach`), instead of
+        ``half_cells``.
 
     Returns
     -------
     ndarray of int
         Sorted unique flat indices (chips clipped to the image, overlaps counted once).
     """
-    half = [int(np.ceil(half_cells * c)) for c in cells]
+    half = [int(np.ceil(half_cells * c)) for c in cells] if reach is None else [
+        int(np.ceil(r)) for r in reach]
     step = [max(1, int(c // 2)) for c in cells]  # about two pixels a cell (Nyquist)
     rows, cols = np.unravel_index(np.asarray(centres, dtype=np.int64), shape)
     d0, d1 = np.meshgrid(np.arange(-half[0], half[0] + 1, step[0]),
