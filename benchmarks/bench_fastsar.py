@@ -5,21 +5,15 @@ target), both tools timed alternately in one process, the best of ``--repeats`` 
 after a warm-up call (compilation), and beside every speed the accuracy of the image against a
 float64 reference:
 
-* **mitsar** ``focus(raw, "bpa", PlaneGrid, range_upsample=64)``, whole beam, rect window:
-  band selection, range compression, the Dr.Jit sum (by row segments,
-  :mod:`mitsar.focus.bp_tiled`), normalisation, the image product. 64x zero-padding (not
-  focus()'s default 16x; ``--range-upsample``) because its linear interpolation then stays
-  well below -60 dB (16x: about -52 dB, 32x: -58 to -64 dB; docs/focusing.md, error
-  budget; on this image 16x -48.2, 32x -60.7, 64x -73.2 dB). The options measured for
-  focus()'s default (issue 24 item 1; 1000 x 512^2, CPU-s of mitsar, load 4-12): linear
-  16x 0.48-0.49 s, 32x 0.58 s, 64x 0.55-0.63 s; a 4-tap Lagrange cubic prototype of the
-  pixel-group kernel 0.68 s at 16x (-96.6 dB), 0.71 s at 8x (-71.2 dB). On a full-swath
-  slant grid (paper track, 2350 sweeps, 300 x 560 pixels over 1-29 m) the profiles cost:
-  linear 16x 2.4 CPU-s and 1.0 GB peak, 32x 3.8 s and 1.6 GB, 64x 4.3 s and 2.8 GB.
-  Accuracy against
-  ``focus(..., backend="numpy")`` on a random subset of the pixels: at 256x (float64, linear
-  interpolation error below -90 dB: the total error of the image, interpolation included),
-  and the same sum in float64 at the same upsampling (the kernel's arithmetic alone).
+* **mitsar** ``focus(raw, "bpa", PlaneGrid)`` at focus()'s defaults (4-tap Lagrange cubic
+  interpolation of 8x zero-padded profiles, :mod:`mitsar.focus.interpolation`), whole beam,
+  rect window: band selection, range compression, the Dr.Jit sum (by row segments,
+  :mod:`mitsar.focus.bp_tiled`), normalisation, the image product. ``--range-upsample`` and
+  ``--interpolation`` time other choices (linear 16x, the old default, is -48 dB on this
+  image). Accuracy against ``focus(..., backend="numpy")`` on a random subset of the pixels:
+  at 32x cubic (float64; the cubic's error bound there is -113 dB, module eq. 2 of
+  :mod:`mitsar.focus.interpolation`: the total error of the image, interpolation included),
+  and the same sum in float64 at the same interpolation (the kernel's arithmetic alone).
 * **FastSAR grid path** ``fastsar.form_image(S, ant, fmin, df, nx, ny, spx, spy,
   algorithm="bp", backend="cpu")``: its ``ExactFormer``, which its docs call "the fast path
   for exact backprojection" onto a regular grid (tile-centre distance in float64 once per tile
@@ -140,9 +134,10 @@ def main() -> None:
                         help="timed calls of FastSAR's points path (default: --repeats up to "
                         "1e9 pixel-pulses, else 1; 0 skips it)")
     parser.add_argument("--check", type=int, default=512, help="pixels in the float64 checks")
-    parser.add_argument("--range-upsample", type=int, default=64,
-                        help="mitsar's range_upsample (zero-padding before its linear "
-                        "interpolation; 16 is focus()'s default)")
+    parser.add_argument("--range-upsample", type=int, default=None,
+                        help="mitsar's range_upsample (default: focus()'s, 8)")
+    parser.add_argument("--interpolation", choices=("cubic", "linear"), default=None,
+                        help="mitsar's range_interpolation (default: focus()'s, cubic)")
     args = parser.parse_args()
 
     radar = mitsar.Radar()
@@ -160,9 +155,11 @@ def main() -> None:
     print(f"exact back-projection, {args.sweeps} sweeps x {n}x{n} ground pixels over "
           f"{EXTENT:g} m = {work:.3g} pixel-pulses; load {load()}")
 
+    chosen = {key: value for key, value in (("range_upsample", args.range_upsample),
+                                            ("range_interpolation", args.interpolation))
+              if value is not None}   # focus()'s defaults unless given
     calls: dict[str, Callable[[], object]] = {
-        "mitsar focus(bpa)": lambda: mitsar.focus(
-            raw, "bpa", grid, range_upsample=args.range_upsample)["image"].values}
+        "mitsar focus(bpa)": lambda: mitsar.focus(raw, "bpa", grid, **chosen)["image"].values}
     repeats = {"mitsar focus(bpa)": args.repeats}
     warm_up: dict[str, Callable[[], object]] = {}
     notes: list[str] = []
@@ -189,6 +186,7 @@ def main() -> None:
             warm_up["FastSAR backproject [points]"] = lambda: fastsar.backproject(
                 history, antenna, fmin, df, points.reshape(-1, 3)[:64], backend="cpu",
                 window=False)
+    print(f"  mitsar at {chosen or 'focus() defaults (cubic, 8x)'}")
     try:
         results = alternate(calls, repeats, warm_up)
     except Exception as error:  # noqa: BLE001  (a missing compiler, an API change: say why)
@@ -201,13 +199,13 @@ def main() -> None:
     pixels = grid.resolve(raw, radar, 0.1)["position"][v_index, u_index]
     accuracy: dict[str, str] = {}
     image = results["mitsar focus(bpa)"][0][v_index, u_index]
-    same = mitsar.focus(raw, "bpa", PointsGrid(pixels), backend="numpy",
-                        range_upsample=args.range_upsample)["image"].values
+    same = mitsar.focus(raw, "bpa", PointsGrid(pixels), backend="numpy", **chosen)
     fine = mitsar.focus(raw, "bpa", PointsGrid(pixels), backend="numpy",
-                        range_upsample=256)["image"].values
+                        range_upsample=32, range_interpolation="cubic")["image"].values
     accuracy["mitsar focus(bpa)"] = (
-        f"{error_db(image, fine.ravel()):.1f} dB (same sum in f64, {args.range_upsample}x: "
-        f"{error_db(image, same.ravel()):.1f} dB)")
+        f"{error_db(image, fine.ravel()):.1f} dB (same sum in f64, "
+        f"{same.attrs['range_interpolation']} {same.attrs['range_upsample']}x: "
+        f"{error_db(image, same['image'].values.ravel()):.1f} dB)")
     if fastsar is not None:
         # FastSAR's pixel (i, j) is x = (i - n/2) step, y = (j - n/2) step: mitsar's (v=j, u=i)
         reference = fastsar_reference(history, antenna, fmin, df, pixels - centre)
