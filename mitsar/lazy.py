@@ -16,8 +16,9 @@ __all__ = ["LazyModule", "lazy_exports"]
 
 
 class LazyModule(ModuleType):
-    """A module imported on its first attribute access (then its namespace is copied here, so
-    later accesses are plain lookups): ``from mitsar.backend import drjit as dr`` at a kernel
+    """A module imported on its first attribute access (every access then reads the imported
+    module's attribute, so that a test's ``monkeypatch`` of the module is seen through it):
+    ``from mitsar.backend import drjit as dr`` at a kernel
     module's top keeps ``dr.`` in its code while a NumPy-only path (a campaign rerun, the
     analytic simulator in NumPy, metrics) never loads Dr.Jit's native libraries; a mitsar
     module that needs a heavy stage only for its compute (a campaign's no-op rerun needs no
@@ -33,8 +34,9 @@ class LazyModule(ModuleType):
     def __getattr__(self, attribute: str) -> Any:
         if attribute.startswith("__"):
             raise AttributeError(attribute)
-        module = importlib.import_module(self.__name__)
-        self.__dict__.update((k, v) for k, v in vars(module).items() if not k.startswith("__"))
+        module = self.__dict__.get("__lazy_module__")
+        if module is None:
+            module = self.__dict__["__lazy_module__"] = importlib.import_module(self.__name__)
         return getattr(module, attribute)
 
 
