@@ -16,9 +16,8 @@ from typing import Any
 
 import numpy as np
 
-from mitsar.focus import grid as grid_module
-from mitsar.focus.dispatch import ALGORITHMS as _FOCUS_ALGORITHMS
 from mitsar.focus.windows import WINDOWS as _WINDOWS
+from mitsar.lazy import LazyModule
 from mitsar.model.geometry.attitude import Look
 from mitsar.model.geometry.navigation import NavigationErrors
 from mitsar.model.geometry.trajectory import Trajectory
@@ -38,15 +37,22 @@ __all__ = [
     "InterferometryOptions",
     "MetricsOptions",
     "PASS_SEED_RULE",
+    "RESUME_CHUNK_SWEEPS",
     "Pass",
     "pass_seed",
 ]
 
-ALGORITHMS = tuple(_FOCUS_ALGORITHMS)
+grid_module = LazyModule("mitsar.focus.grid")
+"""The focusing grids, imported when an experiment makes its grid (xarray and SciPy behind
+them: reading an experiment, or a campaign's no-op rerun, needs neither)."""
+
+ALGORITHMS = ("bpa", "rda", "wda", "fsa", "ffbp")
+"""Focusing algorithms accepted by ``[focus] algorithm``: :data:`mitsar.focus.dispatch.
+ALGORITHMS`, written out so that reading an experiment does not import every focuser (1 CPU-s
+of SciPy and xarray; ``tests/test_startup_montecarlo.py`` holds the two equal)."""
 
 AUTOFOCUS_METHODS = ("pga", "entropy")
 """Autofocus methods of :func:`mitsar.focus` (``autofocus=``)."""
-"""Focusing algorithms accepted by ``[focus] algorithm``."""
 
 ISLR_EXTENTS = tuple(_QUALITY_EXTENTS)
 """Named ISLR side-lobe extents accepted by ``[metrics] islr_extent`` (or a number of cells)."""
@@ -56,6 +62,13 @@ WINDOWS = tuple(_WINDOWS)
 
 GRID_KINDS = ("slant", "plane", "points")
 """Output grid kinds accepted by ``[focus.grid] kind``."""
+
+RESUME_CHUNK_SWEEPS = 1024
+"""Sweeps per chunk of :func:`mitsar.experiment.runs.simulate_to` (the unit of resumption): a
+multiple of the ray tracer's 128-sweep chunks, so that a traced product made chunk by chunk
+equals one :func:`mitsar.simulate_scene` call bit for bit wherever the tracer keeps those
+chunks (docs/reliability.md §5). Here, not in :mod:`~mitsar.experiment.runs`, so that the
+command line's parser reads it without importing the stages."""
 
 
 @dataclass(frozen=True)

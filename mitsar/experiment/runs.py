@@ -30,7 +30,13 @@ import xarray as xr
 from tqdm.auto import tqdm
 
 from mitsar.errors import MemoryBudgetError, MitsarError, MitsarWarning, ParameterError
-from mitsar.experiment.options import PASS_SEED_RULE, Experiment, FocusOptions, MetricsOptions
+from mitsar.experiment.options import (
+    PASS_SEED_RULE,
+    RESUME_CHUNK_SWEEPS,
+    Experiment,
+    FocusOptions,
+    MetricsOptions,
+)
 from mitsar.focus.dispatch import focus
 from mitsar.io import (
     ProductFileError,
@@ -269,12 +275,6 @@ def _experiment_attrs(experiment: Experiment) -> dict[str, Any]:
         metrics_target=experiment.metrics.target, islr_extent=experiment.metrics.islr_extent,
         focus=dataclasses.asdict(experiment.focus))
 
-
-RESUME_CHUNK_SWEEPS = 1024
-"""Sweeps per chunk of :func:`simulate_to` (the unit of resumption): a multiple of the ray
-tracer's 128-sweep chunks, so that a traced product made chunk by chunk equals one
-:func:`mitsar.simulate_scene` call bit for bit wherever the tracer keeps those chunks
-(docs/reliability.md §5)."""
 
 
 def simulate_to(experiment: Experiment, path: str | os.PathLike, overwrite: bool = False,

@@ -15,11 +15,15 @@ import math
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import fft as sp_fft
 
 from mitsar.errors import ParameterError
+from mitsar.lazy import LazyModule
 
 __all__ = ["band_fill_db", "check_factor", "upsample_chip", "upsample_cut"]
+
+sp_fft = LazyModule("scipy.fft")
+"""SciPy's FFT, imported at the first upsampling (reading an experiment's ISLR extents, a
+campaign's no-op rerun, needs none)."""
 
 
 def _centroid_bin(power_spectrum: NDArray[np.floating]) -> int:
