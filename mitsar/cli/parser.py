@@ -8,8 +8,13 @@ from importlib import import_module
 from types import ModuleType
 from typing import Any
 
-from mitsar.experiment.options import ALGORITHMS, AUTOFOCUS_METHODS, ISLR_EXTENTS, WINDOWS
-from mitsar.experiment.runs import RESUME_CHUNK_SWEEPS
+from mitsar.experiment.options import (
+    ALGORITHMS,
+    AUTOFOCUS_METHODS,
+    ISLR_EXTENTS,
+    RESUME_CHUNK_SWEEPS,
+    WINDOWS,
+)
 from mitsar.version import __version__
 
 __all__ = ["build_parser"]
