@@ -52,7 +52,7 @@ from mitsar.io import to_jsonable, write_json
 
 __all__ = ["AUTO", "INLINE", "LOCAL", "SCHEDULER_ENV", "ClusterStartError", "PointFolder",
            "RecordStore", "SchedulerChoice", "Task", "announce", "choose_scheduler", "dask_client",
-           "fingerprint", "local_worker_count", "missing_main_guard", "outputs_match",
+           "fingerprint", "local_worker_count", "missing_main_guard", "outputs_match", "pending",
            "record_outputs", "resolve_scheduler", "run_tasks", "task_seed"]
 
 SCHEDULER_ENV = "MITSAR_DASK_SCHEDULER"
@@ -407,6 +407,20 @@ def _call(function: Callable[..., Any], args: tuple) -> dict:
                 "traceback": traceback.format_exc(limit=8)}
 
 
+def _recorded(tasks: Sequence[Task], store: RecordStore) -> dict[str, dict]:
+    """The records in ``store`` of ``tasks`` that need not run again (same key and inputs)."""
+    stored = store.finished()
+    return {task.key: stored[task.key] for task in tasks if task.key in stored
+            and stored[task.key].get("inputs", task.inputs) == task.inputs}
+
+
+def pending(tasks: Sequence[Task], store: RecordStore) -> list[Task]:
+    """The tasks :func:`run_tasks` would run: those without a record in ``store`` (by key,
+    with the same inputs)."""
+    records = _recorded(tasks, store)
+    return [task for task in tasks if task.key not in records]
+
+
 def run_tasks(function: Callable[..., Any], tasks: Sequence[Task], store: RecordStore, *,
               scheduler: str | None = None, workers: int | None = None, client: Any = None,
               progress: bool = True, desc: str = "campaign",
@@ -457,9 +471,7 @@ def run_tasks(function: Callable[..., Any], tasks: Sequence[Task], store: Record
     keys = [task.key for task in tasks]
     if len(set(keys)) != len(keys):
         raise ParameterError("run_tasks", "tasks", "unique keys", keys)
-    stored = store.finished()
-    records = {task.key: stored[task.key] for task in tasks if task.key in stored
-               and stored[task.key].get("inputs", task.inputs) == task.inputs}
+    records = _recorded(tasks, store)
     todo = [task for task in tasks if task.key not in records]
     if not todo:  # nothing left to do starts no cluster
         announce(progress, f"{desc}: all {len(tasks)} {what} already recorded, nothing to run")

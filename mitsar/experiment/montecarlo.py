@@ -27,7 +27,6 @@ simulated once each and focused by every algorithm; the figures' inputs are hash
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import hashlib
 import json
@@ -45,27 +44,35 @@ from tqdm.auto import tqdm
 
 from mitsar.checks import integer
 from mitsar.errors import MitsarError, ParameterError
-from mitsar.experiment import runs
 from mitsar.experiment.campaign import (
     Task,
     announce,
     fingerprint,
     outputs_match,
+    pending,
     record_outputs,
     run_tasks,
 )
-from mitsar.experiment.coverage import check_target_in_grid
+from mitsar.experiment.cost import FOCUS_SECONDS_PER_PIXEL_SWEEP as FOCUS_SECONDS_PER_PIXEL_SWEEP
+from mitsar.experiment.cost import MEASURE_SECONDS as MEASURE_SECONDS
+from mitsar.experiment.cost import SCENE_RUN_SECONDS as SCENE_RUN_SECONDS
+from mitsar.experiment.cost import SIMULATE_SECONDS_PER_ECHO as SIMULATE_SECONDS_PER_ECHO
+from mitsar.experiment.cost import estimate_run_seconds
 from mitsar.experiment.loading import load_experiment
-from mitsar.experiment.options import Experiment
+from mitsar.experiment.options import ALGORITHMS, Experiment
 from mitsar.experiment.paper import paper_table
-from mitsar.focus.dispatch import ALGORITHMS
-from mitsar.focus.grid import equivalent_position
-from mitsar.io import save
-from mitsar.model.signal import sweep_count
-from mitsar.plots.figures import pyplot, save_figure
-from mitsar.quality.impulse import measure_impulse_response
-from mitsar.raw.analytic import background_cell_area
+from mitsar.lazy import LazyModule
 from mitsar.version import __version__
+
+# The stages a realisation runs, imported at its first use: a finished Monte Carlo run again
+# (every realisation on disk) loads no focuser, simulator, measurement or Matplotlib
+# (docs/reliability.md §7).
+runs = LazyModule("mitsar.experiment.runs")
+coverage = LazyModule("mitsar.experiment.coverage")
+focus_grid = LazyModule("mitsar.focus.grid")
+product_io = LazyModule("mitsar.io")
+plots = LazyModule("mitsar.plots.figures")
+impulse = LazyModule("mitsar.quality.impulse")
 
 RECORD_FILE = "montecarlo.json"
 SUMMARY_FILE = "summary.nc"
@@ -73,21 +80,6 @@ TABLE_FILE = "summary.txt"
 DIRECTIONS = ("range", "azimuth")
 METRICS = ("irw_cells", "pslr_db", "islr_db")
 CUTS_RECORD = "cuts.json"
-
-SIMULATE_SECONDS_PER_ECHO = 1e-8
-"""Analytic simulation cost per sweep x sample x scatterer x channel [s]: the paper's point target
-(600 sweeps x 660 samples x 1074 scatterers) simulates in 3.8-4.9 s on a loaded 2-core
-machine (issue 27)."""
-
-FOCUS_SECONDS_PER_PIXEL_SWEEP = 1e-8
-"""Focusing cost per pixel x sweep x channel [s] (back-projection, the slowest: 0.16-0.25 s for
-the paper's 121 x 201 grid and 600 sweeps)."""
-
-MEASURE_SECONDS = 0.6
-"""Cost of measuring one image's impulse response [s] (0.56-1.8 s for the paper's grid)."""
-
-SCENE_RUN_SECONDS = 60.0
-"""Assumed cost of simulating a ray-traced scene [s]: not estimated from its parameters."""
 
 
 def _fingerprint(config: dict) -> str:
@@ -177,67 +169,9 @@ def measure_realisation(experiment: Experiment, seed: int, algorithms: Sequence[
     return entry
 
 
-def estimate_run_seconds(experiment: Experiment, algorithms: Sequence[str]) -> float:
-    """Rough cost of :func:`measure_realisation` on this experiment [s], from its parameters only.
-
-    Simulation: sweeps x samples x (targets + background scatterers) x channels x
-    :data:`SIMULATE_SECONDS_PER_ECHO` (a scene: :data:`SCENE_RUN_SECONDS`); per algorithm:
-    pixels x sweeps x channels x :data:`FOCUS_SECONDS_PER_PIXEL_SWEEP` + :data:`MEASURE_SECONDS`.
-    It chooses where a campaign runs (:func:`mitsar.experiment.campaign.choose_scheduler`); the
-    constants are measured on a loaded 2-core machine, so within a factor of 2 or so.
-
-    Parameters
-    ----------
-    experiment : Experiment
-    algorithms : sequence of str
-
-    Returns
-    -------
-    float
-        Seconds (> 0).
-    """
-    radar = experiment.radar
-    sweeps = max(sweep_count(radar, experiment.trajectory.duration), 1)
-    channels = max(int(getattr(radar, "channel_count", 1) or 1), 1)
-    if experiment.scene is not None:
-        simulate = SCENE_RUN_SECONDS
-    else:
-        scatterers = len(experiment.targets)
-        background = experiment.background
-        if background is not None:
-            with contextlib.suppress(ValueError, ZeroDivisionError, AttributeError):
-                mid = experiment.trajectory.position(experiment.trajectory.duration / 2)
-                area = background_cell_area(radar, background, np.asarray(mid).reshape(3))
-                scatterers += background.scatterer_count(area)
-        simulate = (sweeps * radar.samples_per_sweep * max(scatterers, 1) * channels
-                    * SIMULATE_SECONDS_PER_ECHO)
-    per_algorithm = (_pixel_count(experiment.focus.grid) * sweeps * channels
-                     * FOCUS_SECONDS_PER_PIXEL_SWEEP + MEASURE_SECONDS)
-    return float(simulate + len(algorithms) * per_algorithm)
-
-
-def _pixel_count(grid: dict | None) -> int:
-    """Pixels of a ``[focus.grid]`` table (an axis it leaves to the algorithm: 256)."""
-    if not grid:
-        return 256 * 256
-
-    def count(axis: Any) -> int:
-        if (isinstance(axis, list | tuple) and len(axis) == 3
-                and all(isinstance(v, int | float) for v in axis) and axis[2]):
-            return max(int((axis[1] - axis[0]) / axis[2]) + 1, 1)
-        if isinstance(axis, list | tuple) and axis:
-            return len(axis)
-        return 256
-
-    if "points" in grid:
-        return max(len(grid["points"]), 1)
-    axes = [grid[k] for k in ("along_track", "slant_range", "u", "v", "x", "y", "z") if k in grid]
-    return int(np.prod([count(a) for a in axes])) if axes else 256 * 256
-
-
 def _measure(image: xr.Dataset, target: Sequence[float], islr_extent: str | float) -> dict:
-    metrics = measure_impulse_response(image, equivalent_position(image, target),
-                                       islr_extent=islr_extent)
+    where = focus_grid.equivalent_position(image, target)
+    metrics = impulse.measure_impulse_response(image, where, islr_extent=islr_extent)
     out = {f"{d}_{m}": float(metrics[d][m]) for d in DIRECTIONS for m in METRICS}
     out["peak_offset_m"] = float(metrics["peak_offset_m"])
     out["peak_db"] = float(metrics["peak_db"])
@@ -293,6 +227,118 @@ def run(experiment: Any, realisations: int = 10,
         metric); ``peak_offset_m`` (realisation, algorithm); coordinate ``seed``
         (realisation). See :func:`format_table`.
     """
+    plan = _plan(experiment, realisations, algorithms, first_seed, out_dir, resume, target,
+                 islr_extent)
+    experiment, algorithms, target = plan.experiment, plan.algorithms, plan.target
+    todo = pending(plan.tasks, plan.store)
+    if todo:  # a target outside the image is refused before the first realisation runs
+        coverage.check_target_in_grid(experiment, target, algorithms, "montecarlo")
+    if out_dir is not None:
+        Path(out_dir).mkdir(parents=True, exist_ok=True)
+    ran: list[str] = []
+    run_tasks(measure_realisation, plan.tasks, plan.store, scheduler=scheduler, workers=workers,
+              client=client, progress=progress, desc="montecarlo", what="realisations",
+              task_seconds=estimate_run_seconds(experiment, algorithms) if todo else None,
+              on_record=lambda task, _: ran.append(task.key))
+    records = plan.records()
+    summary = summarise(records, algorithms)
+    summary.attrs.update(_summary_attrs(plan, records))
+    if out_dir is not None:
+        folder, files = Path(out_dir), [SUMMARY_FILE, TABLE_FILE]
+        # what the files are made from; a rerun that ran nothing rewrites nothing (issue 27)
+        outputs = fingerprint([summary.attrs, records])
+        if not ran and outputs_match(folder, outputs, files):
+            announce(progress, f"montecarlo: {folder / SUMMARY_FILE} and {TABLE_FILE} are up "
+                               "to date, not rewritten")
+            return summary
+        announce(progress, f"montecarlo: table of {len(plan.seeds)} realisations -> "
+                           f"{folder / SUMMARY_FILE}, {TABLE_FILE}")
+        product_io.save(summary, folder / SUMMARY_FILE, overwrite=True)
+        table = format_table(summary)
+        tmp = folder / f".{TABLE_FILE}.{os.getpid()}.tmp"
+        tmp.write_text(table + "\n", encoding="utf-8")
+        os.replace(tmp, folder / TABLE_FILE)
+        record_outputs(folder, outputs, files)
+    return summary
+
+
+def finished_table(experiment: Any, realisations: int = 10,
+                   algorithms: Sequence[str] = ("bpa", "rda", "wda", "fsa"), *,
+                   out_dir: str | os.PathLike, first_seed: int | None = None,
+                   target: Sequence[float] | None = None, islr_extent: str | float | None = None,
+                   progress: bool = True) -> str | None:
+    """The table of a finished Monte Carlo whose files are up to date, or None.
+
+    What :func:`run` with the same arguments (and ``resume=True``) would print through
+    :func:`format_table` when it has nothing to run and nothing to rewrite: every realisation
+    recorded in ``out_dir``, and ``summary.nc`` and ``summary.txt`` made from these records
+    (``outputs.json``). Read from ``summary.txt``, without building the summary (xarray makes
+    Dask import itself for any Dataset: ~0.35 CPU-s of a no-op rerun, docs/reliability.md §7).
+    None when anything is left to run or write, or when no realisation was measured (then
+    :func:`run` says why).
+
+    Parameters
+    ----------
+    experiment, realisations, algorithms, out_dir, first_seed, target, islr_extent, progress
+        As for :func:`run`.
+
+    Raises
+    ------
+    ParameterError, MitsarError
+        As :func:`run`, for arguments it would refuse.
+    """
+    plan = _plan(experiment, realisations, algorithms, first_seed, out_dir, True, target,
+                 islr_extent)
+    if pending(plan.tasks, plan.store):
+        return None
+    records = plan.records()
+    if not any(metrics for r in records for metrics in r["metrics"].values()):
+        return None
+    folder, files = Path(out_dir), [SUMMARY_FILE, TABLE_FILE]
+    if not outputs_match(folder, fingerprint([_summary_attrs(plan, records), records]), files):
+        return None
+    try:
+        table = (folder / TABLE_FILE).read_text(encoding="utf-8").removesuffix("\n")
+    except (OSError, UnicodeDecodeError):
+        return None
+    announce(progress, f"montecarlo: all {len(plan.seeds)} realisations already recorded, "
+                       "nothing to run")  # as run_tasks and run say it
+    announce(progress, f"montecarlo: {folder / SUMMARY_FILE} and {TABLE_FILE} are up to date, "
+                       "not rewritten")
+    return table
+
+
+@dataclasses.dataclass
+class _Plan:
+    """A Monte Carlo's checked arguments, its record and its tasks (:func:`_plan`)."""
+
+    experiment: Experiment
+    algorithms: list[str]
+    target: tuple[float, ...]
+    islr_extent: str | float
+    first_seed: int
+    config_key: str
+    seeds: list[int]
+    store: _Record
+    tasks: list[Task]
+
+    def records(self) -> list[dict]:
+        """One record per seed, in seed order; a realisation that failed as a whole stands
+        as every algorithm's failure."""
+        records = [r for r in self.store.records if r["seed"] in set(self.seeds)]
+        for seed in self.seeds:
+            if str(seed) in self.store.errors and seed not in {r["seed"] for r in records}:
+                records.append({"seed": seed, "metrics": {}, "failures": {
+                    algorithm: f"run failed: {self.store.errors[str(seed)]}"
+                    for algorithm in self.algorithms}})
+        by_seed = {r["seed"]: r for r in records}
+        return [by_seed[s] for s in self.seeds]
+
+
+def _plan(experiment: Any, realisations: int, algorithms: Sequence[str],
+          first_seed: int | None, out_dir: str | os.PathLike | None, resume: bool,
+          target: Sequence[float] | None, islr_extent: str | float | None) -> _Plan:
+    """Check :func:`run`'s arguments and read its record (no simulation, no xarray object)."""
     if not isinstance(experiment, Experiment):
         experiment = load_experiment(experiment)
     realisations = integer("montecarlo", "realisations", realisations, 1)
@@ -308,8 +354,6 @@ def run(experiment: Any, realisations: int = 10,
     if target is None:
         raise ParameterError("montecarlo", "target", "a target position ([metrics] target or "
                              "a [[targets]] entry)", None)
-    # A target outside the image is refused before the first realisation, not by each one.
-    check_target_in_grid(experiment, target, algorithms, "montecarlo")
     islr_extent = experiment.metrics.islr_extent if islr_extent is None else islr_extent
     first_seed = experiment.simulation.seed if first_seed is None else int(first_seed)
     config = {"experiment": experiment.config, "algorithms": algorithms,
@@ -321,9 +365,7 @@ def run(experiment: Any, realisations: int = 10,
     errors: dict[str, str] = {}
     record_path = None
     if out_dir is not None:
-        folder = Path(out_dir)
-        folder.mkdir(parents=True, exist_ok=True)
-        record_path = folder / RECORD_FILE
+        record_path = Path(out_dir) / RECORD_FILE
         if resume and record_path.exists():
             try:
                 stored = json.loads(record_path.read_text(encoding="utf-8"))
@@ -340,44 +382,21 @@ def run(experiment: Any, realisations: int = 10,
     seeds = [first_seed + i for i in range(realisations)]
     tasks = [Task(_key(seed), (experiment, seed, algorithms, target, islr_extent))
              for seed in seeds]
-    ran: list[str] = []
-    run_tasks(measure_realisation, tasks, store, scheduler=scheduler, workers=workers,
-              client=client, progress=progress, desc="montecarlo", what="realisations",
-              task_seconds=estimate_run_seconds(experiment, algorithms),
-              on_record=lambda task, _: ran.append(task.key))
-    records = [r for r in store.records if r["seed"] in set(seeds)]
-    for seed in seeds:
-        if str(seed) in store.errors and seed not in {r["seed"] for r in records}:
-            records.append({"seed": seed, "metrics": {}, "failures": {
-                algorithm: f"run failed: {store.errors[str(seed)]}" for algorithm in algorithms}})
-    by_seed = {r["seed"]: r for r in records}
-    summary = summarise([by_seed[s] for s in seeds], algorithms)
-    failures = {f"{seed} {algorithm}": reason for seed in seeds
-                for algorithm, reason in by_seed[seed].get("failures", {}).items()}
-    summary.attrs["failures"] = json.dumps(failures)
-    summary.attrs.update(product="montecarlo", fingerprint=config_key,
-                         islr_extent=str(islr_extent), first_seed=first_seed,
-                         mitsar_version=__version__,
-                         experiment=json.dumps(experiment.config))
-    if experiment.background is not None:
-        summary.attrs["background_cell_rcs_db"] = float(experiment.background.cell_rcs_db)
-    if out_dir is not None:
-        folder, files = Path(out_dir), [SUMMARY_FILE, TABLE_FILE]
-        # what the files are made from; a rerun that ran nothing rewrites nothing (issue 27)
-        outputs = fingerprint([summary.attrs, [by_seed[s] for s in seeds]])
-        if not ran and outputs_match(folder, outputs, files):
-            announce(progress, f"montecarlo: {folder / SUMMARY_FILE} and {TABLE_FILE} are up "
-                               "to date, not rewritten")
-            return summary
-        announce(progress, f"montecarlo: table of {len(seeds)} realisations -> "
-                           f"{folder / SUMMARY_FILE}, {TABLE_FILE}")
-        save(summary, folder / SUMMARY_FILE, overwrite=True)
-        table = format_table(summary)
-        tmp = folder / f".{TABLE_FILE}.{os.getpid()}.tmp"
-        tmp.write_text(table + "\n", encoding="utf-8")
-        os.replace(tmp, folder / TABLE_FILE)
-        record_outputs(folder, outputs, files)
-    return summary
+    return _Plan(experiment, algorithms, target, islr_extent, first_seed, config_key, seeds,
+                 store, tasks)
+
+
+def _summary_attrs(plan: _Plan, records: Sequence[dict]) -> dict[str, Any]:
+    """The attributes of the summary of ``records`` (:func:`run`)."""
+    failures = {f"{record['seed']} {algorithm}": reason for record in records
+                for algorithm, reason in record.get("failures", {}).items()}
+    attrs = {"failures": json.dumps(failures), "product": "montecarlo",
+             "fingerprint": plan.config_key, "islr_extent": str(plan.islr_extent),
+             "first_seed": plan.first_seed, "mitsar_version": __version__,
+             "experiment": json.dumps(plan.experiment.config)}
+    if plan.experiment.background is not None:
+        attrs["background_cell_rcs_db"] = float(plan.experiment.background.cell_rcs_db)
+    return attrs
 
 
 def summarise(records: Sequence[dict], algorithms: Sequence[str]) -> xr.Dataset:
@@ -536,7 +555,7 @@ def realisations_cuts(experiment: Any, algorithms: Sequence[str], realisations: 
         if image.attrs.get("grid_kind") != "slant":
             raise ParameterError("montecarlo", "focus.grid.kind", "a slant grid for the cuts",
                                  image.attrs.get("grid_kind"))
-        where = equivalent_position(image, target)
+        where = focus_grid.equivalent_position(image, target)
         distance = np.linalg.norm(image["position"].values - where, axis=-1)
         row, col = np.unravel_index(np.argmin(distance), distance.shape)
         magnitude = np.abs(image["image"].values)
@@ -613,7 +632,7 @@ def draw_cuts(experiment: Experiment, algorithms: Sequence[str], realisations: i
 def plot_realisation_cuts(cuts: dict[str, Any], path: str | os.PathLike,
                           overwrite: bool = False) -> Path:
     """Figure like paper Figs. 8-9: cuts of several realisations over the nominal response."""
-    figure, axes = pyplot().subplots(1, 2, figsize=(11, 4), constrained_layout=True)
+    figure, axes = plots.pyplot().subplots(1, 2, figsize=(11, 4), constrained_layout=True)
     for ax, direction in zip(axes, DIRECTIONS, strict=True):
         offset = cuts[f"{direction}_offset"]
         for seed, cut in zip(cuts["seeds"], cuts["realisations"], strict=True):
@@ -624,4 +643,4 @@ def plot_realisation_cuts(cuts: dict[str, Any], path: str | os.PathLike,
                xlim=(max(offset.min(), -1.0), min(offset.max(), 1.0)))
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=7)
-    return save_figure(figure, path, overwrite=overwrite)
+    return plots.save_figure(figure, path, overwrite=overwrite)
