@@ -7,14 +7,16 @@ import argparse
 import json
 from pathlib import Path
 
-from mitsar.ambiguity.sweep import is_ambiguity_document, run_ambiguity_sweep
 from mitsar.checks import integer
 from mitsar.cli.common import log
 from mitsar.errors import MitsarError
 from mitsar.experiment import montecarlo
 from mitsar.experiment.loading import load_experiment, read_toml
-from mitsar.experiment.sweep import run_sweep
 from mitsar.io import ProductFileError
+from mitsar.lazy import LazyModule
+
+ambiguity_sweep = LazyModule("mitsar.ambiguity.sweep")  # each command imports its own stages
+sweep = LazyModule("mitsar.experiment.sweep")
 
 __all__ = ["cmd_montecarlo", "cmd_sweep"]
 
@@ -30,11 +32,13 @@ def cmd_montecarlo(args: argparse.Namespace) -> int:
               + (f" and cut figures (--cuts {args.cuts})" if args.cuts else ""))
     integer("montecarlo", "--cuts", args.cuts, 0)
     experiment = load_experiment(args.experiment, args.set)
-    summary = montecarlo.run(experiment, args.realisations, args.algorithms, out_dir=out,
-                             resume=not args.restart, progress=not args.quiet,
-                             scheduler=args.scheduler, workers=args.workers)
-    print(montecarlo.format_table(summary), flush=True)
-    if int(summary["count"].max()) == 0:
+    table = None if args.restart else montecarlo.finished_table(  # no-op rerun: no Dataset
+        experiment, args.realisations, args.algorithms, out_dir=out, progress=not args.quiet)
+    summary = None if table is not None else montecarlo.run(
+        experiment, args.realisations, args.algorithms, out_dir=out, resume=not args.restart,
+        progress=not args.quiet, scheduler=args.scheduler, workers=args.workers)
+    print(table if summary is None else montecarlo.format_table(summary), flush=True)
+    if summary is not None and int(summary["count"].max()) == 0:
         reasons = json.loads(summary.attrs.get("failures", "{}") or "{}")
         first = next(iter(reasons.items()), ("", "unknown"))
         raise MitsarError(f"montecarlo: no realisation of {args.experiment} could be measured, "
@@ -53,20 +57,20 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         raise ProductFileError(f"{out}: exists and is not a folder (-o names the sweep folder; "
                                "choose another name)")
     if args.ambiguity:
-        table = run_ambiguity_sweep(args.experiment, args.vary, out, overrides=args.set,
-                                    realisations=args.realisations, scheduler=args.scheduler,
-                                    workers=args.workers, restart=args.restart,
-                                    progress=not args.quiet)
+        table = ambiguity_sweep.run_ambiguity_sweep(
+            args.experiment, args.vary, out, overrides=args.set,
+            realisations=args.realisations, scheduler=args.scheduler, workers=args.workers,
+            restart=args.restart, progress=not args.quiet)
         log(args, f"wrote {out / 'sweep.nc'}, {out / 'sweep_ambiguity.csv'} and figures/: "
                   f"{table.attrs['runs']} points, {table.attrs['failed_runs']} failed")
         return 0
-    if is_ambiguity_document(read_toml(Path(args.experiment))):
+    if ambiguity_sweep.is_ambiguity_document(read_toml(Path(args.experiment))):
         raise MitsarError(f"sweep: {args.experiment} is an ambiguity file (docs/ambiguity.md); "
                           "pass --ambiguity to sweep its ambiguity fractions")
-    table = run_sweep(args.experiment, args.vary, out, realisations=args.realisations,
-                      algorithms=args.algorithms, seed=args.seed, overrides=args.set,
-                      scheduler=args.scheduler, workers=args.workers, restart=args.restart,
-                      progress=not args.quiet, table=False)
+    table = sweep.run_sweep(args.experiment, args.vary, out, realisations=args.realisations,
+                            algorithms=args.algorithms, seed=args.seed, overrides=args.set,
+                            scheduler=args.scheduler, workers=args.workers, restart=args.restart,
+                            progress=not args.quiet, table=False)
     if table is not None:  # None: up to date, said by run_sweep
         log(args, f"sweep table {out / 'sweep.nc'}, {out / 'sweep.csv'} and figures/: "
                   f"{table.attrs['runs']} runs, {table.attrs['failed_runs']} failed")
