@@ -33,7 +33,8 @@ def main() -> None:
 
     radar = mitsar.Radar()
     raw = paper_target_raw(args.sweeps, radar)
-    frequency, profile = range_spectrum(raw["raw"].values, radar, upsample=16)
+    # focus()'s default profiles: 8x zero-padding, read by the cubic interpolation
+    frequency, profile = range_spectrum(raw["raw"].values, radar, upsample=8)
     side = np.linspace(-1.0, 1.0, args.pixels)
     grid_x, grid_y = np.meshgrid(15.0 + side, 8.0 + side, indexing="ij")
     pixels = np.stack([grid_x, grid_y, np.zeros_like(grid_x)], -1).reshape(-1, 3)

@@ -3,7 +3,7 @@
 ``focus(raw, "bpa", grid)`` on the Dr.Jit backend sums every grid by row segments: float64
 range and phase once per segment and sweep, each pixel's offset from the segment centre to
 third order in float32 (docs/focusing.md, "Exact BPA by pixel groups"). Tolerance -80 dB of
-the image against ``backend="numpy"`` (float64 per pixel and sweep, the same 16x profiles):
+the image against ``backend="numpy"`` (float64 per pixel and sweep, the same profiles):
 the expansion is admitted only below 1e-4 rad of phase per term (PHASE_LIMIT, -80 dB even if
 every term erred by that much in the same direction), the float32 offsets and phase leave
 ~1e-5 rad (-100 dB); the issue's requirement is -60 dB. A pixel mixed up with another, a sweep
