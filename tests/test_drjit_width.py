@@ -114,11 +114,12 @@ def test_back_projection_runs_at_a_crashing_width():
 
 @pytest.mark.parametrize("curved", [False, True], ids=["sub-apertures", "pixel-band"])
 def test_ffbp_final_stage_padding_changes_no_pixel(monkeypatch, curved):
-    """FFBP's final stage (one lane a pixel, onto sub-apertures on a straight track, each
-    pixel's own band on a turn): extra lanes change no pixel's value."""
+    """FFBP's first stage (four nodes a lane), merges (one node a lane) and final stage (one
+    lane a pixel, onto sub-apertures on a straight track, each pixel's own band on a turn):
+    extra lanes change no pixel's value."""
     import math
 
-    from mitsar.focus import ffbp
+    from mitsar.focus import ffbp, ffbp_stages
     from mitsar.focus.grid import PlaneGrid
 
     if curved:  # a 20-degree turn of 10 m radius past the target
@@ -135,8 +136,11 @@ def test_ffbp_final_stage_padding_changes_no_pixel(monkeypatch, curved):
                      v=[-0.1, 0.1, 0.01])
     options = {"azimuth_resolution": 0.1, "window": "hamming"} if curved else {}
     image = mitsar.focus(raw, "ffbp", grid, **options)
+    widths = []
     monkeypatch.setattr(ffbp, "safe_width", lambda width: width + 9)
+    monkeypatch.setattr(ffbp_stages, "safe_width", lambda width: widths.append(width) or width + 9)
     padded = mitsar.focus(raw, "ffbp", grid, **options)
+    assert len(widths) == image.attrs["ffbp_stages"]  # the first stage and every merge
     assert image.attrs["ffbp_final"] == ("pixel band" if curved else "sub-apertures")
     assert np.array_equal(image["image"].values, padded["image"].values)
     assert np.array_equal(image["coverage"].values, padded["coverage"].values)
