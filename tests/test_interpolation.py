@@ -15,18 +15,11 @@ import numpy as np
 import pytest
 
 import mitsar
-from mitsar.backend import array_namespace
+from mitsar.focus import interpolation
 from mitsar.focus.backprojection import backproject_drjit, backproject_numpy
 from mitsar.focus.bp_tiled import backproject_tiled
 from mitsar.focus.compression import range_spectrum
 from mitsar.focus.grid import PlaneGrid
-from mitsar.focus.interpolation import (
-    coefficient_table,
-    error_bound,
-    horner,
-    kernel_packets,
-    numpy_fma,
-)
 from mitsar.focus.windows import window_coefficients
 
 RADAR = mitsar.Radar()
@@ -36,9 +29,10 @@ TARGET = np.array([15.0, 8.0, 0.0])
 def _interpolate(samples: np.ndarray, position: np.ndarray, kind: str,
                  periodic: bool = False) -> np.ndarray:
     """The NumPy path of the back-projection sums: coefficient table, then Horner."""
-    table = coefficient_table(samples, kind, periodic)
+    table = interpolation.coefficient_table(samples, kind, periodic)
     lower = np.floor(position).astype(int)
-    return horner(tuple(table[lower % len(samples)].T), position - lower, numpy_fma)
+    terms = tuple(table[lower % len(samples)].T)
+    return interpolation.horner(terms, position - lower, interpolation.numpy_fma)
 
 
 def _tone_error(upsample: float, kind: str, fractions: np.ndarray) -> float:
@@ -55,7 +49,7 @@ def test_band_edge_error_follows_the_lagrange_remainder(kind):
     fractions = np.linspace(0.0, 1.0, 201)[:-1]
     for upsample in (4, 8, 16):
         error = _tone_error(upsample, kind, fractions)
-        bound = error_bound(upsample, kind)
+        bound = interpolation.error_bound(upsample, kind)
         assert 0.9 * bound <= error <= 1.1 * bound, (upsample, error, bound)
     slope = _tone_error(8, kind, fractions) / _tone_error(16, kind, fractions)
     assert slope == pytest.approx(4.0 if kind == "linear" else 16.0, rel=0.2)
@@ -64,8 +58,8 @@ def test_band_edge_error_follows_the_lagrange_remainder(kind):
 def test_cubic_at_8x_beats_linear_at_16x_and_the_60_db_bound():
     """The choice of focus()'s defaults (docs/focusing.md, error budget): the cubic's worst
     component at 8x is -65 dB, the old linear 16x default's -46 dB."""
-    assert 20 * math.log10(error_bound(8, "cubic")) < -60.0
-    assert 20 * math.log10(error_bound(16, "linear")) > -50.0
+    assert 20 * math.log10(interpolation.error_bound(8, "cubic")) < -60.0
+    assert 20 * math.log10(interpolation.error_bound(16, "linear")) > -50.0
 
 
 def test_polynomials_interpolate_their_taps_and_wrap_when_periodic():
@@ -84,9 +78,9 @@ def test_polynomials_interpolate_their_taps_and_wrap_when_periodic():
         shifted = _interpolate(np.roll(samples, -6), np.array([5.5]), kind, periodic=True)
         np.testing.assert_allclose(periodic, shifted, atol=1e-12)
         # the kernels' float32 packets hold the same coefficients
-        packets = kernel_packets(samples[None], kind).view(np.complex64).reshape(12, -1)
-        np.testing.assert_allclose(packets[:-1], coefficient_table(samples, kind)[:-1],
-                                   atol=1e-6)
+        packets = interpolation.kernel_packets(samples[None], kind).view(np.complex64)
+        table = interpolation.coefficient_table(samples, kind)
+        np.testing.assert_allclose(packets.reshape(table.shape)[:-1], table[:-1], atol=1e-6)
 
 
 @pytest.fixture(scope="module")
@@ -106,7 +100,6 @@ def test_numpy_and_drjit_kernels_agree(raw, kind):
     """Same profiles, same interpolation: the exact kernel within 1e-6 of the peak of the
     float64 sum (float32 interpolation and sums), the pixel groups within -80 dB (their
     expansion's own bound, tests/test_bpa_fast.py)."""
-    array_namespace()
     frequency, profile = range_spectrum(raw["raw"].values, RADAR, upsample=8)
     u, v = np.meshgrid(np.arange(-0.1, 0.1, 0.004), np.arange(-0.05, 0.05, 0.005))
     pixels = TARGET + np.stack([u, v, 0 * u], -1).reshape(-1, 3)
