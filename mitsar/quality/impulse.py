@@ -360,6 +360,8 @@ def measure_impulse_response(
     if search_radius_m is not None:
         checks.positive("measure_impulse_response", "search_radius_m", search_radius_m,
                         "a positive radius, m")
+        checks.bounded("measure_impulse_response", "search_radius_m", search_radius_m, "m",
+                       "a positive radius, m")
     if cut_axes not in CUT_AXES:
         raise ParameterError("measure_impulse_response", "cut_axes", f"one of {CUT_AXES}",
                              cut_axes)

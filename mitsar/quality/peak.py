@@ -15,8 +15,10 @@ __all__ = ["fine_peak", "peak_pixel", "refine_peak_2d"]
 
 
 def peak_pixel(geometry: ImageGeometry, target_index: NDArray, search_m: float) -> NDArray:
-    """Brightest pixel within ``search_m`` of the target (disc in the image's metres)."""
+    """Brightest pixel within ``search_m`` of the target (disc in the image's metres; a radius
+    beyond the image's diagonal searches the whole image, as that radius would)."""
     shape = np.array(geometry.values.shape)
+    search_m = min(float(search_m), float(np.linalg.norm(shape * np.abs(geometry.spacing))))
     half = np.ceil(search_m / np.abs(geometry.spacing)).astype(int) + 1
     centre = np.rint(target_index).astype(int)
     lo = np.clip(centre - half, 0, shape - 1)
