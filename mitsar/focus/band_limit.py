@@ -7,7 +7,7 @@ band-limited to B. With the paper's rho = 0.1 m at 8 m its Fresnel number ``B^2 
 and 15 % of the column energy lies outside the band (docs/products.md, "Band-limited pixels on
 any track"), which SICD's ``DeltaK1/2`` (NGA.STND.0024-1 Vol. 1 §4.2) cannot declare while
 ``ImpRespBW`` stays 1/rho. On a straight track the ``"doppler"`` selection band-passes the echoes
-instead; on any other track :func:`band_limit` does the same in the image:
+instead; on any other track :func:`band_limit_image` does the same in the image:
 
 1. back-project with a per-pixel aperture :data:`WIDENING` times wider, weighted by the
    maximally flat window :data:`FLAT_TOP` (flat to 0.3 % over the middle quarter, smooth to its
@@ -31,6 +31,8 @@ aperture, as ``"doppler"`` gives on a straight track.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 import xarray as xr
 from numpy.typing import NDArray
@@ -44,8 +46,8 @@ from mitsar.focus.windows import evaluate_window, window_coefficients
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
 from mitsar.products.raw import sweep_rate
 
-__all__ = ["FLAT_TOP", "NODE_STEP", "WIDENING", "azimuth_bandpass", "band_limit",
-           "wide_half_width"]
+__all__ = ["FLAT_TOP", "NODE_STEP", "WIDENING", "azimuth_bandpass", "band_limit_image",
+           "band_limited_focus", "wide_half_width"]
 
 WIDENING = 4.0
 """Width of the back-projected per-pixel aperture in units of the processed band. The flat
@@ -66,8 +68,9 @@ which blurs the band's edges by at most this much."""
 
 def wide_half_width(raw: xr.Dataset, radar: Radar, half_width: float,
                     positions: NDArray) -> float | None:
-    """Half width in direction sine of the wider aperture :func:`band_limit` back-projects onto
-    the grid ``positions`` (shape (A, B, 3) [m]), or None where the band is left to the focuser:
+    """Half width in direction sine of the wider aperture that :func:`band_limit_image` needs
+    on the grid ``positions`` (shape (A, B, 3) [m]), or None where the band is left to the
+    focuser:
     a grid that is not 2-D, a straight uniform track (``"doppler"`` selects the band without a
     sliding aperture), or no room for a wider aperture. The widening is :data:`WIDENING`, less
     where the pixels sample it too coarsely (the wide band ``W B`` about the centre must not
@@ -160,7 +163,7 @@ def azimuth_bandpass(image: NDArray, centre: NDArray, spacing: float, bandwidth:
     return out
 
 
-def band_limit(values: NDArray, positions: NDArray, raw: xr.Dataset, half_width: float,
+def band_limit_image(values: NDArray, positions: NDArray, raw: xr.Dataset, half_width: float,
                wide: float, window: str) -> NDArray:
     """Band-limit an image back-projected with the wider aperture ``wide`` and window
     :data:`FLAT_TOP` to the processed band ``half_width`` (module docstring).
@@ -201,3 +204,19 @@ def band_limit(values: NDArray, positions: NDArray, raw: xr.Dataset, half_width:
                               window_coefficients(window), FLAT_TOP,
                               2 * wavenumber * wide)
     return np.moveaxis(result, 0, axis)
+
+
+def band_limited_focus(focuser: Callable[[float, str | NDArray], tuple[NDArray, NDArray, dict]],
+                       raw: xr.Dataset, radar: Radar, positions: NDArray, half_width: float,
+                       window: str, enabled: bool = True) -> tuple[NDArray, NDArray, dict]:
+    """Run a back-projection ``focuser(half_width, window) -> (values, coverage, extra)`` onto
+    the grid ``positions`` and band-limit its image (module docstring) where
+    :func:`wide_half_width` finds it needed and ``enabled``; ``extra`` then gets
+    ``band_limit = "image"`` and ``coverage`` is the wider aperture's fraction."""
+    wide = wide_half_width(raw, radar, half_width, positions) if enabled else None
+    if wide is None:
+        return focuser(half_width, window)
+    values, coverage, extra = focuser(wide, FLAT_TOP)
+    values = band_limit_image(np.reshape(values, np.shape(positions)[:-1]), positions, raw,
+                              half_width, wide, window)
+    return values, coverage, {**extra, "band_limit": "image"}
