@@ -15,6 +15,7 @@ from mitsar import checks
 from mitsar.errors import ParameterError
 from mitsar.focus.aperture import MAX_AZIMUTH_RESOLUTION, aperture_half_width
 from mitsar.focus.autofocus import PulseSettings, make_options, run_autofocus
+from mitsar.focus.band_limit import band_limited_focus
 from mitsar.focus.bpa import focus_bpa
 from mitsar.focus.channels import focus_channels
 from mitsar.focus.ffbp import focus_ffbp
@@ -45,7 +46,8 @@ def focus(raw: xr.Dataset | Sequence[xr.Dataset], algorithm: str = "bpa",
           algorithm_options: dict | None = None, progress: bool = False,
           motion_compensation: bool = True, autofocus: str | None = None,
           autofocus_options: dict | None = None, combine: str = "coherent",
-          range_interpolation: str = DEFAULT_INTERPOLATION) -> xr.Dataset:
+          range_interpolation: str = DEFAULT_INTERPOLATION, band_limit: bool = True
+          ) -> xr.Dataset:
     """Focus a raw product into an image, or several passes into one image or volume.
 
     Parameters
@@ -83,6 +85,13 @@ def focus(raw: xr.Dataset | Sequence[xr.Dataset], algorithm: str = "bpa",
         Interpolation of the range profiles in the back-projections (4-tap Lagrange cubic, or
         linear; :mod:`mitsar.focus.interpolation`; cubic at 8x: -71 dB, linear at 16x: -48 dB
         against a float64 reference, docs/focusing.md error budget).
+    band_limit : bool
+        BPA and FFBP onto a 2-D grid off a straight uniform track: select the processed band in
+        the image (:mod:`mitsar.focus.band_limit`: a wider per-pixel aperture, then the band
+        about each pixel's centre of aperture), so the pixels are band-limited to 1/rho as SICD
+        declares them (attribute ``band_limit = "image"``); False keeps the per-pixel band that
+        slides with the pixel. Not with ``autofocus``: the phase it cannot observe (a linear
+        ramp over the sweeps) shifts the spectrum off the band the geometry predicts.
     pixel_chunk : int, optional
         Pixels per kernel launch (memory bound); default 2^20, or 2^16 with a progress bar.
     algorithm_options : dict, optional
@@ -124,8 +133,8 @@ def focus(raw: xr.Dataset | Sequence[xr.Dataset], algorithm: str = "bpa",
             range_upsample=range_upsample, pixel_chunk=pixel_chunk,
             algorithm_options=algorithm_options, progress=progress,
             motion_compensation=motion_compensation, autofocus=autofocus,
-            autofocus_options=autofocus_options, range_interpolation=range_interpolation),
-            autofocus)
+            autofocus_options=autofocus_options, range_interpolation=range_interpolation,
+            band_limit=band_limit), autofocus)
     if combine != "coherent":
         raise ParameterError("focus", "combine", f"'coherent' for one raw product (one of "
                              f"{COMBINE} combines a list of passes)", combine)
@@ -178,8 +187,8 @@ def focus(raw: xr.Dataset | Sequence[xr.Dataset], algorithm: str = "bpa",
             range_upsample=range_upsample, pixel_chunk=pixel_chunk,
             algorithm_options=algorithm_options, progress=progress,
             motion_compensation=motion_compensation, autofocus=method,
-            autofocus_options=autofocus_options, range_interpolation=range_interpolation),
-            autofocus)
+            autofocus_options=autofocus_options, range_interpolation=range_interpolation,
+            band_limit=band_limit), autofocus)
 
     radar = radar_of(raw)
     if int(raw.attrs.get("sweep_stride", 1)) > 1 and algorithm not in ("bpa", "ffbp"):
@@ -210,11 +219,13 @@ def focus(raw: xr.Dataset | Sequence[xr.Dataset], algorithm: str = "bpa",
     elif algorithm == "ffbp":
         layout = grid.resolve(raw, radar, nominal_azimuth)
         ffbp = focus_ffbp_volume if isinstance(grid, VolumeGrid) else focus_ffbp
-        values, coverage, extra = ffbp(
-            raw, layout, half_width=half_width, window=window, range_window=range_window,
-            remove_rvp=remove_rvp, motion_correction=motion_correction,
-            range_upsample=range_upsample, options=algorithm_options, progress=progress,
-            range_interpolation=range_interpolation)
+        values, coverage, extra = band_limited_focus(
+            lambda width, taper: ffbp(
+                raw, layout, half_width=width, window=taper, range_window=range_window,
+                remove_rvp=remove_rvp, motion_correction=motion_correction,
+                range_upsample=range_upsample, options=algorithm_options, progress=progress,
+                range_interpolation=range_interpolation),
+            raw, radar, layout["position"], half_width, window, band_limit and not autofocus)
         extra = {"backend": "drjit", **extra}
     elif algorithm != "bpa":
         raw, layout, compensation = _straighten(raw, radar, grid, nominal_azimuth, half_width,
@@ -227,14 +238,18 @@ def focus(raw: xr.Dataset | Sequence[xr.Dataset], algorithm: str = "bpa",
         extra = {"backend": "numpy", **extra}
     else:
         layout = grid.resolve(raw, radar, nominal_azimuth)
-        values, coverage, extra = focus_bpa(
-            raw, layout["position"].reshape(-1, 3), half_width=half_width, window=window,
-            range_window=range_window, remove_rvp=remove_rvp,
-            motion_correction=motion_correction, backend=backend,
-            range_upsample=range_upsample, progress=progress,
-            range_interpolation=range_interpolation,
-            pixel_chunk=pixel_chunk or (1 << 16 if progress else 1 << 20),
-            row_length=layout["position"].shape[-2] if layout["position"].ndim > 2 else None)
+        # a 2-D grid off a straight track: a wider aperture, then the band in the image
+        values, coverage, extra = band_limited_focus(
+            lambda width, taper: focus_bpa(
+                raw, layout["position"].reshape(-1, 3), half_width=width, window=taper,
+                range_window=range_window, remove_rvp=remove_rvp,
+                motion_correction=motion_correction, backend=backend,
+                range_upsample=range_upsample, progress=progress,
+                range_interpolation=range_interpolation,
+                pixel_chunk=pixel_chunk or (1 << 16 if progress else 1 << 20),
+                row_length=(layout["position"].shape[-2] if layout["position"].ndim > 2
+                            else None)),
+            raw, radar, layout["position"], half_width, window, band_limit and not autofocus)
     shape = layout["position"].shape[:-1]  # the grid's dims: two, or three for a volume
     image = make_image_product(raw, np.reshape(values, shape), layout, {**processing, **extra},
                                coverage=np.reshape(coverage, shape))
@@ -262,8 +277,8 @@ def focus(raw: xr.Dataset | Sequence[xr.Dataset], algorithm: str = "bpa",
         azimuth_resolution=azimuth_resolution, remove_rvp=remove_rvp,
         motion_correction=motion_correction, backend=backend, range_upsample=range_upsample,
         pixel_chunk=pixel_chunk, algorithm_options=algorithm_options, progress=progress,
-        motion_compensation=motion_compensation, range_interpolation=range_interpolation),
-        autofocus, autofocus_options, settings)
+        motion_compensation=motion_compensation, range_interpolation=range_interpolation,
+        band_limit=False), autofocus, autofocus_options, settings)
 
 
 def _check_volume(raw: xr.Dataset, algorithm: str, autofocus: str | None) -> None:
