@@ -2,8 +2,9 @@
 
 Judged by sarpy 2.1 (the test extra): its ``fft_sicd`` (the DFT of the pixels with the exponent
 sign ``Grid/{Row,Col}/Sgn``, NGA.STND.0024-1 SICD Vol. 1 §4.2) puts >= 95 % of the row and of
-the column spectral energy inside ``[DeltaK1, DeltaK2]`` (the curved flight's columns: 0.9486,
-docs/products.md), its SICD model finds the metadata valid, and it rebuilds the window from
+the column spectral energy inside ``[DeltaK1, DeltaK2]`` (on the curved, wandering flight too:
+its pixels are band-limited in the image, :mod:`mitsar.focus.band_limit`), its SICD model finds
+the metadata valid, and it rebuilds the window from
 ``WgtType``; ``TimeCOAPoly`` at the SCP lies within one sweep of the geometric centre of
 aperture (Vol. 1 §4.3); sarkit's ``sicdcheck`` exits 0.
 """
@@ -42,7 +43,9 @@ def _paper(step: float = 0.01):
 
 def _curved():
     """A curved flight (0.04 m sideways over 2.4 s) that wanders (3 cm at 0.8 s across, 1 cm
-    at 1.1 s in height: the velocity swings by +-25 deg), two targets, 'pixel' band BPA."""
+    at 1.1 s in height: the velocity swings by +-25 deg), two targets, BPA with the band
+    selected in the image (a wider per-pixel aperture, then the band about each pixel's centre
+    of aperture: mitsar.focus.band_limit)."""
     t = np.linspace(0.0, 2.4, 241)
     wave, bob = 2 * np.pi / 0.8, 2 * np.pi / 1.1
     position = np.c_[14.8 + 0.5 * t, 1.4 + 0.04 * (t / 2.4) ** 2 + 0.03 * np.sin(wave * t),
@@ -56,7 +59,7 @@ def _curved():
     grid = mitsar.grid.SlantGrid(along_track=[0.2, 1.4, 0.01], slant_range=[6.99, 8.99, 0.01])
     image = mitsar.focus(raw, algorithm="bpa", window="rect", azimuth_resolution=0.1,
                          grid=grid)
-    assert image.attrs["band_selection"] == "pixel"
+    assert image.attrs["band_limit"] == "image"
     return raw, image
 
 
@@ -116,13 +119,12 @@ def test_spectral_energy_inside_the_declared_support(product):
     reader = sarpy_reader(path)
     np.testing.assert_array_equal(reader[:, :], pixels)  # sarpy and sarkit read the same
     fractions = support_fractions(path)
-    # Measured: paper row 0.9986, col 0.9980; curved row 0.9977, col 0.9486. The issue asks
-    # 0.95; the curved columns fall short because "pixel" band selection (which curved tracks
-    # need) slides the aperture with the pixel: the response carries exp(j pi k d^2 / R) and
-    # is not band-limited to 1/rho (docs/products.md, "What the curved flight's columns still
-    # miss"), which no SICD metadata consistent with ImpRespBW = 1/rho can declare.
+    # The issue asks 0.95. Measured: paper row 0.9986, col 0.9980; curved row 0.9984, col
+    # 0.9996 (0.9492 with the sliding per-pixel band: its response sinc(B d) exp(j pi k d^2/R)
+    # is not band-limited, test_a_sliding_aperture_is_not_band_limited; the band is now
+    # selected in the image, mitsar.focus.band_limit, docs/products.md).
     assert fractions["Row"] >= 0.95
-    assert fractions["Col"] >= (0.95 if name == "paper" else 0.94)
+    assert fractions["Col"] >= 0.95
     for dim in ("Row", "Col"):  # a real support, not the whole band
         width = (_value(xml, f"{{*}}Grid/{{*}}{dim}/{{*}}DeltaK2")
                  - _value(xml, f"{{*}}Grid/{{*}}{dim}/{{*}}DeltaK1"))
@@ -189,8 +191,10 @@ def test_sicdcheck_exits_0_at_a_nominal_sampling(tmp_path):
 
 
 def test_a_sliding_aperture_is_not_band_limited(tmp_path, monkeypatch):
-    """Why the curved flight's columns fall short of 95 %: "pixel" band selection (the one
-    curved tracks take) centres each pixel's aperture on the pixel, so a point's response is
+    """Why a 2-D image off a straight track has its band selected in the image
+    (mitsar.focus.band_limit): "pixel" band selection alone (as a straight track gets it here,
+    and any track on a PointsGrid) centres each pixel's aperture on the pixel, so a point's
+    response is
     ``sinc(B d) exp(j pi k d^2 / R)`` (d along the columns, B = 1/rho, k = 2 f_c / c): not
     band-limited to B. On the paper's straight track, whose "doppler" selection is band-limited,
     the same image with "pixel" selection keeps in [DeltaK1, DeltaK2] about the closed form's
