@@ -27,6 +27,15 @@ FastSAR gets the same sweeps as a frequency-domain phase history: RVP removed, c
 accuracy is measured against the exact float64 sum ``sum_p sum_k S[p, k] exp(+j 4 pi f_k dR /
 c)`` (no interpolation at all) on the same subset of pixels.
 
+Measured on 27 November 2026 (2 CPUs shared with six other sessions; docs/focusing.md, "Exact
+BPA by pixel groups", has the full table), mitsar at its defaults against the grid path:
+1000 x 512^2, load 3.8 -> 6.6: mitsar 1.28 s wall / 0.65 CPU-s, -70.9 dB; FastSAR grid 2.04 s /
+1.00 CPU-s, -85.3 dB; points 11.4 s, -44.3 dB: 1.59x (wall), 1.53x (per CPU-s); another run at
+load 4.4: 1.44x / 1.41x. 4096 x 1024^2, load 5.0 -> 5.8: mitsar 5.66 s / 3.49 CPU-s, -65.9 dB;
+FastSAR grid 14.6 s / 14.5 CPU-s, -84.0 dB; points 184 s, -44.2 dB: 2.59x (wall), 4.16x (per
+CPU-s). The 2x is reached at 4096 x 1024^2, not at 1000 x 512^2, where the pixel-group kernel
+(85-90 % of mitsar's CPU time) is limited by the cubic's 32-byte packet loads.
+
 Counts: pixel-pulses = pixels x sweeps for every tool (mitsar sums, per pixel, only the
 sweeps whose line of sight lies in the beam; FastSAR every sweep). Wall time is what counts;
 CPU time of all threads is printed beside it, and the load average before and after, since
