@@ -61,7 +61,7 @@ from mitsar.experiment.montecarlo import (
     estimate_run_seconds,
     measure_realisation,
 )
-from mitsar.focus.dispatch import ALGORITHMS
+from mitsar.experiment.options import ALGORITHMS
 from mitsar.io import atomic_writer, save
 from mitsar.plots.figures import pyplot, save_figure
 from mitsar.plots.labels import key_label, quantity_label
