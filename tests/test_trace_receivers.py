@@ -122,14 +122,9 @@ def test_traced_receiver_offsets_equal_the_exact_half_path(monkeypatch):
     track = mitsar.Trajectory.linear([14.8, 1.4, 4.5], [0.5, 0.0, 0.0], 150.5 / RADAR.prf)
     radar = mitsar.Radar(receivers=[(0, 0, 0), (0, 0, 0.05)])
     options = {"density": 60.0, "seed": 2}
-    taken = []
-    original = backscatter.receiver_polynomial_holds
-
-    def spy(*args):
-        taken.append(original(*args))
-        return taken[-1]
-
-    monkeypatch.setattr(backscatter, "receiver_polynomial_holds", spy)
+    original, taken = backscatter.receiver_polynomial_holds, []  # each chunk's decision
+    monkeypatch.setattr(backscatter, "receiver_polynomial_holds",
+                        lambda *args: taken.append(original(*args)) or taken[-1])
     polynomial = mitsar.simulate_scene(radar, track, LOOK, "control_volume", **options)
     assert taken and all(taken)
     monkeypatch.setattr(backscatter, "receiver_polynomial_holds", lambda *args: False)
