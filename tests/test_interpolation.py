@@ -78,9 +78,11 @@ def test_polynomials_interpolate_their_taps_and_wrap_when_periodic():
         shifted = _interpolate(np.roll(samples, -6), np.array([5.5]), kind, periodic=True)
         np.testing.assert_allclose(periodic, shifted, atol=1e-12)
         # the kernels' float32 packets hold the same coefficients
-        packets = interpolation.kernel_packets(samples[None], kind).view(np.complex64)
-        table = interpolation.coefficient_table(samples, kind)
-        np.testing.assert_allclose(packets.reshape(table.shape)[:-1], table[:-1], atol=1e-6)
+        for bins in (2, 3, 5, 6, 12):  # short profiles too (the packets' split into parts)
+            packets = interpolation.kernel_packets(samples[None, :bins], kind)
+            table = interpolation.coefficient_table(samples[:bins], kind)
+            np.testing.assert_allclose(packets.view(np.complex64).reshape(table.shape)[:-1],
+                                       table[:-1], atol=1e-6)
 
 
 @pytest.fixture(scope="module")

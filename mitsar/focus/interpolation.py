@@ -134,6 +134,9 @@ def kernel_packets(profile: NDArray, interpolation: str) -> NDArray[np.float32]:
     Computed in the profile's precision, rounded once."""
     profile = np.asarray(profile, dtype=np.complex64)
     *rows, bins = profile.shape
+    if bins < 6:  # too short for the interior/ends split below
+        table = coefficient_table(profile, interpolation)
+        return np.ascontiguousarray(table, dtype=np.complex64).view(np.float32).ravel()
     out = np.empty((*rows, bins, TERMS[interpolation]), dtype=np.complex64)
     out[..., 0] = profile
     if interpolation == "linear":
