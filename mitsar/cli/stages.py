@@ -125,8 +125,10 @@ def cmd_export(args: argparse.Namespace) -> int:
 def format_metrics(metrics: dict[str, Any]) -> str:
     """Impulse-response metrics as a small text table."""
     target = ", ".join(f"{v:.3f}" for v in metrics.get("target", []))
+    extent = metrics.get("islr_extent")  # a name ('paper': ±5 cells) or cells either side
+    extent = f"±{extent:g} cells" if isinstance(extent, int | float) else repr(extent)
     lines = [f"target [{target}] m, peak offset {metrics.get('peak_offset_m', float('nan')):.4f}"
-             f" m, ISLR extent {metrics.get('islr_extent')!r}",
+             f" m, ISLR extent {extent}",
              f"{'':9}{'IRW [m]':>10}{'IRW [cells]':>13}{'PSLR [dB]':>11}{'ISLR [dB]':>11}"]
     for name in ("range", "azimuth"):
         m = metrics[name]
