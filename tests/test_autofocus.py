@@ -204,9 +204,9 @@ def test_bad_autofocus_inputs_are_named(straight):
     with pytest.raises(mitsar.ParameterError, match="'autofocus_options'"):
         mitsar.focus(raw, grid=small, azimuth_resolution=RHO, autofocus="pga",
                      autofocus_options={"windows": 3})
-    with pytest.raises(mitsar.ParameterError, match="'shrink'"):
+    with pytest.raises(mitsar.ParameterError, match="'window_energy'"):
         mitsar.focus(raw, grid=small, azimuth_resolution=RHO, autofocus="pga",
-                     autofocus_options={"shrink": 0.0})
+                     autofocus_options={"window_energy": 1.0})
 
 
 @pytest.mark.skipif(not GOTCHA.is_dir(), reason=f"GOTCHA sample not found at {GOTCHA} "

@@ -155,8 +155,10 @@ def test_autofocus_brings_the_reflector_back(room, method):
 def test_a_bare_floor_ends_with_a_warning(room, method):
     """A concrete floor alone (speckle: no point stands 15 dB above the median of its
     surroundings, docs/autofocus.md) with the same errors: autofocus has nothing to lock on;
-    it says so and returns the uncorrected image, not a shifted or smeared one."""
-    plain = mitsar.focus(room["floor"], "bpa", GRID, azimuth_resolution=RHO)
+    it says so and returns the uncorrected image, not a shifted or smeared one: the image
+    autofocus starts from, formed with the processed band selected per pixel (band_limit=False:
+    autofocus models that sum, mitsar.focus's docstring)."""
+    plain = mitsar.focus(room["floor"], "bpa", GRID, azimuth_resolution=RHO, band_limit=False)
     with pytest.warns(MitsarWarning, match="autofocus"):
         image = mitsar.focus(room["floor"], "bpa", GRID, azimuth_resolution=RHO,
                              autofocus=method)

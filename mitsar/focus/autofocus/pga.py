@@ -5,8 +5,8 @@ all range lines from the brightest scatterers: each line's brightest pixel is ci
 to the centre, a window around it keeps the scatterer and rejects clutter, an azimuth inverse FFT
 gives the scatterer's phase history ``g_k``, and the phase gradient is estimated by
 ``arg sum_p g_k(p) conj(g_(k-1)(p))`` (the maximum-likelihood kernel of Jakowatz & Wahl 1993,
-JOSA A 10(12)), integrated, stripped of its linear trend and applied; the window shrinks at
-every iteration.
+JOSA A 10(12)), integrated, stripped of its linear trend and applied; the window is set at
+every iteration from the energy spread of the centred scatterers (:func:`energy_window`).
 
 Back-projection has no azimuth FFT on a curved track, so here every step is written with the BP
 geometry (:mod:`mitsar.focus.autofocus.contributions`):
@@ -21,8 +21,15 @@ geometry (:mod:`mitsar.focus.autofocus.contributions`):
 * centring picks the brightest q; the window ``|q - q_c| <= W`` keeps the scatterer, and the
   adjoint ``g_k = D_k,p,qc sum_q conj(D_kpq) W_q I_p(q)`` returns to the pulse domain with the
   phase referred to the centre (the circular shift), for any track;
-* the window starts as the whole line and shrinks geometrically, but never below twice the
-  -10 dB width of the centred, line-summed intensity (Wahl 1994 §III) nor below a few cells.
+* the window is measured, not scheduled: at every iteration its half width is the one that
+  holds ``window_energy`` of the dominant scatterers' energy above the clutter floor in the
+  centred, line-summed intensity (:func:`energy_window`; Wahl et al. 1994 §III determine the
+  width from that same sum), never below ``min_window_cells``. A defocused response is as wide
+  as its phase error's spread of instantaneous frequencies (stationary phase: ``q u^2`` over
+  ``u in [-1, 1]`` spreads a point uniformly over ``+-2 q / pi`` cells), so the first window
+  holds the whole smear and later ones follow it as it contracts; the classic rule (start at the
+  whole line, halve each iteration, floored at twice the -10 dB width) took no account of the
+  smear and cut it when the error was large, or kept clutter when it was small.
 
 All steps are array operations over sweeps, lines and line points; only iterations loop.
 """
@@ -39,7 +46,7 @@ from mitsar.focus.autofocus.contributions import PulseData
 from mitsar.focus.autofocus.lines import azimuth_lines
 from mitsar.focus.autofocus.phase import integrate_gradient, remove_linear_phase, wrap
 
-__all__ = ["PGAOptions", "estimate_pga"]
+__all__ = ["PGAOptions", "energy_window", "estimate_pga"]
 
 
 @dataclass(frozen=True)
@@ -68,12 +75,24 @@ class PGAOptions:
         extent (a full azimuth line, as PGA's azimuth FFT).
     oversample : int
         Line points per resolution cell (default 2).
-    shrink : float
-        Window shrink factor per iteration (default 0.5).
+    window_energy : float
+        Fraction of the scatterers' energy above the clutter floor that the window holds
+        (default 0.99: a focused point's ``sinc^2`` leaves ``~1 / (pi^2 w)`` of its energy
+        outside +-w cells, so 99 % keeps its sidelobes out to ~10 cells, whose phase carries
+        the same error; 0.95 (+-2 cells) biased the point target of docs/autofocus.md to
+        0.018 rad rms against 0.003; :func:`energy_window`). Replaces the classic ``shrink``
+        factor (0.5 per iteration until 2026-11).
     min_window_cells : float
-        Smallest window half width, resolution cells (default 4).
+        Smallest window half width, resolution cells (default 4). The first iteration keeps
+        the whole line (as PGA's first pass keeps the whole image): a random walk's white
+        increments spread a point over the whole alias period, where no floor tells it from
+        clutter (a measured first window of 48 cells left 1.7 rad rms on that point target).
     tolerance : float
-        Stop when the rms of an iteration's correction falls below this [rad] (default 0.02).
+        Stop when the rms of an iteration's correction falls below this [rad] (default 0.02),
+        or when an update below twice the clutter's noise floor (:func:`_noise_floor`) did not
+        sharpen the line images: on clutter the estimator's own spread can exceed the
+        tolerance (traced room of docs/autofocus.md: updates of 0.05 rad rms against a floor
+        of 0.048, growing again if iterated on).
     min_coherence : float
         Lines whose sweep-to-sweep phase differences agree with the estimated gradient less
         than this (coherence in [0, 1]) are left out of that iteration's estimate (default
@@ -98,7 +117,7 @@ class PGAOptions:
     iterations: int = 10
     line_cells: float | None = None
     oversample: int = 2
-    shrink: float = 0.5
+    window_energy: float = 0.99
     min_window_cells: float = 4.0
     tolerance: float = 0.02
     min_coherence: float = 0.3
@@ -114,7 +133,7 @@ class PGAOptions:
                   "clutter_cells": self.clutter_cells >= 1,
                   "iterations": self.iterations >= 1,
                   "line_cells": self.line_cells is None or self.line_cells >= 2,
-                  "oversample": self.oversample >= 1, "shrink": 0 < self.shrink <= 1,
+                  "oversample": self.oversample >= 1, "window_energy": 0 < self.window_energy < 1,
                   "min_window_cells": self.min_window_cells > 0,
                   "tolerance": self.tolerance >= 0,
                   "min_coherence": 0 <= self.min_coherence <= 1,
@@ -131,7 +150,7 @@ _EXPECTED = {"scatterers": "an integer >= 1", "dynamic_range_db": "a level > 0 d
              "min_scr_db": "a finite ratio in dB", "clutter_cells": "a number of cells >= 1",
              "iterations": "an integer >= 1",
              "line_cells": "None or a number of cells >= 2", "oversample": "an integer >= 1",
-             "shrink": "a factor in (0, 1]", "min_window_cells": "a number of cells > 0",
+             "window_energy": "a fraction in (0, 1)", "min_window_cells": "a number of cells > 0",
              "tolerance": "a phase >= 0 rad",
              "min_coherence": "a coherence in [0, 1]", "aperture": "'beam' or 'processed'",
              "max_elements": "an integer >= 1"}
@@ -141,6 +160,83 @@ def _entropy(power: NDArray) -> float:
     """Entropy ``-sum p ln p`` of the normalised intensity of all line images [nats]."""
     share = power.ravel() / max(float(power.sum()), 1e-300)
     return float(-np.sum(share * np.log(share + 1e-300)))
+
+
+def energy_window(centred: NDArray, fraction: float) -> int:
+    """Half width [line points] holding ``fraction`` of the scatterers' energy above the
+    clutter floor in centred line intensities.
+
+    ``centred[p, q]`` is line p's intensity circularly shifted so that its brightest point sits
+    at ``q_c = Q // 2``. Each line is normalised to unit energy (one vote a scatterer, so one
+    bright line cannot set the width for all) and the lines are summed, ``S(q)``, as Wahl et
+    al. (1994, §III) sum the centred range lines to measure the width. The clutter floor ``b``
+    is the mean of S over the outer half of the period (``|q - q_c| > Q / 4``), and the
+    scatterers' energy within ``+-w`` is ``H(w) = sum_(|q - q_c| <= w) (S(q) - b)``, signed, so
+    that the clutter's fluctuations about its mean cancel instead of adding up (a line spans
+    the whole alias-free extent, and its clutter can hold as much energy as the scatterer).
+    The width is the smallest ``w`` with ``H(w) >= fraction * max H``. Clutter within 30 dB
+    of the peak makes H wander by about the last percent of it, so near ``fraction`` = 0.99
+    the width grows with such clutter (measured: 10.5 -> 21 cells at 25 dB; unchanged at 35
+    dB); the window is then wider, never narrower, than the response.
+
+    Closed forms (tests/test_pga_window.py): a point focused through a rectangular aperture,
+    ``S ~ sinc^2``, holds ``F(w) = (2 / pi) [Si(2 pi w) - sin^2(pi w) / (pi w)]`` within
+    +-w cells: 90.3 % within its first nulls, 95 % within +-2.07 cells and 99 % within
+    +-10.3; a quadratic phase error ``q u^2`` over ``u in [-1, 1]`` spreads it
+    uniformly over ``+-2 q / pi`` cells (stationary phase), so the half width is about
+    ``fraction * 2 q / pi`` cells.
+    """
+    centred = np.asarray(centred, dtype=float)
+    length = centred.shape[-1]
+    energy = centred.sum(axis=-1, keepdims=True)
+    shares = centred / np.where(energy > 0, energy, 1.0)
+    summed = np.median(shares, axis=0) if len(shares) >= 3 else shares.mean(axis=0)
+    middle, inner = length // 2, max(1, length // 4)
+    distance = np.abs(np.arange(length) - middle)
+    outer = distance > inner
+    floor = float(summed[outer].mean()) if outer.any() else 0.0
+    excess = summed - floor  # signed: the clutter's fluctuations about its mean cancel
+    # energy within +-w of the centre, w = 0 .. inner
+    held = np.cumsum(np.bincount(np.minimum(distance, inner + 1), weights=excess,
+                                 minlength=inner + 2))[: inner + 1]
+    total = float(held.max())
+    if total <= 0:
+        return 0
+    return int(np.argmax(held >= fraction * total))
+
+
+def _sharper(entropy: list[float]) -> bool:
+    """Whether the last line-image entropy is lower than the one before by more than 1e-4
+    (relative) [nats]."""
+    return entropy[-1] < entropy[-2] - 1e-4 * abs(entropy[-2])
+
+
+def _noise_floor(pairs: NDArray, coverage: NDArray) -> float:
+    """Rms [rad] of the update that the lines' disagreement alone would give.
+
+    Per sweep, the ML gradient ``arg sum_p pairs[k, p]`` of P lines whose phase differences
+    scatter about it has variance ``~ 2 (1 - R_k) / P`` (small-angle circular variance of
+    the pairs about their resultant, ``R_k = |sum_p pairs| / sum_p |pairs|``, over P lines;
+    Mardia & Jupp, *Directional Statistics*, 2000, §2.3.4), with ``R_k^2`` freed of its
+    finite-sample bias, ``(P R^2 - 1) / (P - 1)``, and P the effective number of lines
+    ``(sum |pairs|)^2 / sum |pairs|^2``. Integrated over the S covered
+    sweeps and stripped of its linear phase as :func:`.phase.remove_linear_phase` does (the
+    slope is the mean sweep-to-sweep difference, which ties the two ends: a Brownian bridge;
+    then its mean), white gradient noise of variance v leaves a residual of rms
+    ``sqrt(v S / 12)`` (a bridge's variance ``t (1 - t)`` averages 1/6 over the aperture,
+    its mean's variance is 1/12).
+    """
+    magnitude = np.abs(pairs)
+    size = magnitude.sum(axis=1)
+    resultant = np.abs(pairs.sum(axis=1)) / np.maximum(size, 1e-300)
+    lines = size**2 / np.maximum((magnitude**2).sum(axis=1), 1e-300)  # effective P
+    # |mean| of P phasors is biased up by (1 - R^2) / P in its square: unbiased R^2
+    squared = np.clip((lines * resultant**2 - 1) / np.maximum(lines - 1, 1e-12), 0.0, 1.0)
+    variance = 2 * (1 - np.sqrt(squared)) / np.maximum(lines, 1.0)
+    both = coverage[1:] * coverage[:-1]
+    if both.sum() <= 0:
+        return 0.0
+    return float(np.sqrt(np.average(variance, weights=both) * coverage.sum() / 12))
 
 
 def _consensus_gradient(pairs: NDArray, min_coherence: float) -> tuple[NDArray, NDArray]:
@@ -189,7 +285,10 @@ def estimate_pga(data: PulseData, points: NDArray, options: PGAOptions
         sweeps are corrected by ``exp(-j phase)``.
     info : dict
         ``iterations`` (run), ``converged`` (bool), ``last_update_rms`` [rad, of the wrapped
-        update], ``window_cells`` (half width of the last window), ``kept_iteration`` (the
+        update], ``window_cells`` (half width of the last window) and ``windows_cells`` (of
+        every iteration's, :func:`energy_window`), ``update_rms`` and ``noise_rms`` (per
+        iteration: the update and the clutter's floor, :func:`_noise_floor`, rad),
+        ``kept_iteration`` (the
         iterate returned: the one of sharpest line images, 0 = no correction),
         ``line_entropy_initial`` / ``line_entropy_final`` (of the line images before and with
         the returned estimate, nats), ``covered_sweeps``, ``scatterers`` (lines used),
@@ -202,8 +301,8 @@ def estimate_pga(data: PulseData, points: NDArray, options: PGAOptions
     count, length = lines.offsets.shape
     coverage = lines.coverage
     total = np.zeros(len(history))
-    half_window = float(length // 2)
     minimum = options.min_window_cells * options.oversample
+    voters = np.ones(count, dtype=bool)  # lines whose spread sets the window
     info = {"iterations": 0, "converged": False, "last_update_rms": float("nan")}
     rows = np.arange(count)
     # The estimate kept is the iterate whose line images are sharpest (lowest entropy, the
@@ -211,7 +310,8 @@ def estimate_pga(data: PulseData, points: NDArray, options: PGAOptions
     # windowed projection is not exact (the lines are not unitary on a curved or jittered
     # track) and later iterations can undo a good first one.
     best = (np.inf, total.copy(), 0)
-    line_entropy = []
+    line_entropy: list[float] = []
+    pending = False
     for iteration in range(options.iterations):
         corrected = history * np.exp(-1j * total)[:, None]
         image = np.einsum("kpq,kp->pq", shift, corrected)  # line images I_p(q)
@@ -219,8 +319,16 @@ def estimate_pga(data: PulseData, points: NDArray, options: PGAOptions
         line_entropy.append(_entropy(power))
         if line_entropy[-1] < best[0]:
             best = (line_entropy[-1], total.copy(), iteration)
+        if pending and not _sharper(line_entropy):
+            info["converged"] = True  # an update within the noise that sharpened nothing
+            break
         centre = np.argmax(power, axis=1)
         index = np.arange(length)[None, :]
+        # the window from the energy spread of the centred lines (those coherent last time)
+        rolled = power[rows[:, None], (index + centre[:, None] - length // 2) % length]
+        half_window = float(length // 2) if iteration == 0 else max(
+            minimum, float(energy_window(rolled[voters], options.window_energy)))
+        info.setdefault("windows_cells", []).append(round(half_window / options.oversample, 2))
         distance = (index - centre[:, None]) % length  # circular: the line is one period
         distance = np.minimum(distance, length - distance)
         outside = np.where(distance <= half_window, 0.0, image)
@@ -228,21 +336,24 @@ def estimate_pga(data: PulseData, points: NDArray, options: PGAOptions
         projected *= shift[:, rows, centre] * covered  # phase about the centre (the shift)
         pairs = projected[1:] * projected[:-1].conj()  # (S - 1, P)
         gradient, kept = _consensus_gradient(pairs, options.min_coherence)
+        voters = kept
         info.setdefault("lines_kept", []).append(int(kept.sum()))
         update = remove_linear_phase(integrate_gradient(gradient), coverage)
         total = remove_linear_phase(total + update, coverage)
         rms = float(np.sqrt(np.average(wrap(update) ** 2, weights=coverage)))
+        floor = _noise_floor(pairs[:, kept], coverage)
+        info.setdefault("noise_rms", []).append(round(floor, 4))
+        info.setdefault("update_rms", []).append(round(rms, 4))
         info.update(iterations=iteration + 1, last_update_rms=rms,
                     window_cells=half_window / options.oversample)
-        # Next window: shrink, but keep twice the -10 dB width of the centred summed intensity.
-        rolled = power[rows[:, None], (index + centre[:, None] - length // 2) % length]
-        summed = rolled.sum(axis=0)
-        above = np.flatnonzero(summed >= summed.max() / 10)
-        measured = 2 * float(np.max(np.abs(above - length // 2)))
-        half_window = max(minimum, min(half_window * options.shrink, measured))
         if rms < options.tolerance:
             info["converged"] = True
             break
+        pending = rms < 2 * floor
+    else:
+        line_entropy.append(_entropy(np.abs(lines.images(total)) ** 2))
+        info["converged"] = pending and not _sharper(line_entropy)
+        line_entropy.pop()
     final = _entropy(np.abs(lines.images(total)) ** 2)
     line_entropy.append(final)
     if final < best[0]:
