@@ -58,8 +58,9 @@ from mitsar.io import atomic_writer
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
 from mitsar.version import __version__
 
-__all__ = ["SICD_NAMESPACE", "WEIGHT_SAMPLES", "aperture_of", "centre_of_aperture",
-           "impulse_width_factor", "sicd_layout", "sicd_pixels", "weighting", "write_sicd"]
+__all__ = ["SICD_NAMESPACE", "WEIGHT_SAMPLES", "aperture_of", "boundary_vertices",
+           "centre_of_aperture", "impulse_width_factor", "sicd_layout", "sicd_pixels",
+           "weighting", "write_sicd"]
 
 SICD_NAMESPACE = "urn:SICD:1.4.0"
 """XML namespace of SICD 1.4.0."""
@@ -197,6 +198,22 @@ def sicd_pixels(image_product: xr.Dataset, layout: dict | None = None) -> np.nda
     if layout["flip_col"]:
         pixels = pixels[:, ::-1]
     return np.ascontiguousarray(pixels, dtype=np.complex64)
+
+
+def boundary_vertices(rows: int, cols: int, per_edge: int) -> np.ndarray:
+    """(row, col) vertices [pixels] of the whole image's boundary, ``per_edge`` along each
+    edge (corners once), clockwise as SICD's ValidData wants them (NGA.STND.0024-1 Vol. 1
+    §2.3: first vertex the minimum row, then minimum column; the order of the four corners
+    ``(0, 0), (0, cols-1), (rows-1, cols-1), (rows-1, 0)``). Shape (V, 2), integers."""
+    def edge(count: int) -> np.ndarray:
+        return np.unique(np.linspace(0, count - 1, max(2, min(per_edge, count))).round()
+                         ).astype(int)
+    along_cols, along_rows = edge(cols), edge(rows)
+    top = np.c_[np.zeros(len(along_cols), int), along_cols]
+    right = np.c_[along_rows[1:], np.full(len(along_rows) - 1, cols - 1)]
+    bottom = np.c_[np.full(len(along_cols) - 1, rows - 1), along_cols[::-1][1:]]
+    left = np.c_[along_rows[::-1][1:-1], np.zeros(len(along_rows) - 2, int)]
+    return np.concatenate([top, right, bottom, left])
 
 
 def _oriented(array: np.ndarray, layout: dict) -> np.ndarray:
@@ -510,6 +527,11 @@ def write_sicd(image_product: xr.Dataset, path: str | os.PathLike, *,
     sight /= np.linalg.norm(sight, axis=1, keepdims=True)
     corner_rows = np.array([0, 0, rows - 1, rows - 1]) - scp_index[0]
     corner_cols = np.array([0, cols - 1, cols - 1, 0]) - scp_index[1]
+    # ValidData (Vol. 1 §2.3, ImageData): the whole image, its edges sampled so that the
+    # readers' DeltaK1/2 (extremes of DeltaKCOAPoly at these vertices) see the support's
+    # extremes along the edges, not only at the four corners
+    valid = boundary_vertices(rows, cols, COA_SAMPLES)
+    valid_rows, valid_cols = valid[:, 0] - scp_index[0], valid[:, 1] - scp_index[1]
 
     def grid_dim(u: np.ndarray, spacing: float, resolution: float, applied: str) -> dict:
         # mitsar's pixels hold exp(-j 2 pi k l.x) (back-projection leaves the carrier,
@@ -523,7 +545,7 @@ def write_sicd(image_product: xr.Dataset, path: str | os.PathLike, *,
         k_ctr = round(k_scp * spacing) / spacing
         delta_poly = _fit_poly2d(xrow, ycol, spatial - k_ctr, poly_order, covered)
         corners = np.polynomial.polynomial.polyval2d(
-            corner_rows * layout["row_spacing"], corner_cols * layout["col_spacing"],
+            valid_rows * layout["row_spacing"], valid_cols * layout["col_spacing"],
             delta_poly)
         low = float(corners.min()) - bandwidth / 2
         high = float(corners.max()) + bandwidth / 2
@@ -560,6 +582,9 @@ def write_sicd(image_product: xr.Dataset, path: str | os.PathLike, *,
                    + ground[1] * c * layout["col_spacing"]
                    for r, c in zip(corner_rows, corner_cols, strict=True)]
     corners = wgs84.cartesian_to_geodetic(origin.to_ecf(np.array(corners_lab)))[:, :2]
+    valid_lab = (scp_lab + ground[0] * (valid_rows * layout["row_spacing"])[:, None]
+                 + ground[1] * (valid_cols * layout["col_spacing"])[:, None])
+    valid_geo = wgs84.cartesian_to_geodetic(origin.to_ecf(valid_lab))[:, :2]
     # RadarCollection/Area (Vol. 1 §4.8): the imaged ground corners, clockwise seen from above
     ring = np.array(corners_lab)[:, :2]
     clockwise = float(np.sum(ring[:, 0] * np.roll(ring[:, 1], -1)
@@ -579,10 +604,10 @@ def write_sicd(image_product: xr.Dataset, path: str | os.PathLike, *,
     xml["ImageData"] = {"PixelType": "RE32F_IM32F", "NumRows": rows, "NumCols": cols,
                         "FirstRow": 0, "FirstCol": 0,
                         "FullImage": {"NumRows": rows, "NumCols": cols},
-                        "SCPPixel": list(scp_index)}
+                        "SCPPixel": list(scp_index), "ValidData": valid}
     xml["GeoData"] = {"EarthModel": "WGS_84",
                       "SCP": {"ECF": scp, "LLH": wgs84.cartesian_to_geodetic(scp)},
-                      "ImageCorners": corners}
+                      "ImageCorners": corners, "ValidData": valid_geo}
     xml["Grid"] = {
         "ImagePlane": plane, "Type": "PLANE", "TimeCOAPoly": time_coa_poly,
         "Row": grid_dim(layout["u_row"], layout["row_spacing"], row_resolution,
