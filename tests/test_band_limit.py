@@ -83,7 +83,8 @@ GRID = mitsar.grid.SlantGrid(along_track=[-0.1, 1.4, 0.01], slant_range=[7.4, 8.
 def test_the_wider_aperture_is_used_only_where_it_helps():
     """2-D grids off a straight track: WIDENING x the band, less where the pixels sample it
     too coarsely (W <= 2 / (B dy) - 1: 3 at dy = rho / 2), none at dy = rho, none on a
-    straight uniform track (its "doppler" band is band-limited) nor on a PointsGrid."""
+    straight uniform track (its "doppler" band is band-limited), on a PointsGrid, or on a
+    grid whose azimuth axis turns away from the track."""
     radar = mitsar.Radar()
     half_width = radar.wavelength / (4 * 0.1)
     curved, straight = _raw(_flight(0.04, 0.03)), _raw(mitsar.Trajectory.linear(
@@ -99,6 +100,14 @@ def test_the_wider_aperture_is_used_only_where_it_helps():
     assert wide_half_width(curved, radar, half_width, positions(0.1)) is None
     assert wide_half_width(straight, radar, half_width, fine) is None
     assert wide_half_width(curved, radar, half_width, fine.reshape(-1, 3)) is None
+    def turned(degrees: float) -> np.ndarray:  # the grid turned about the vertical
+        c, s = np.cos(np.radians(degrees)), np.sin(np.radians(degrees))
+        centre = fine.mean(axis=(0, 1))
+        return centre + (fine - centre) @ np.array([[c, s, 0], [-s, c, 0], [0, 0, 1.0]])
+    # the range band (2 B_rf / c = 10 cyc/m) spills sin(theta) of itself across the azimuth
+    # axis: accepted up to a node step (0.625 cyc/m, 3.6 deg), refused beyond
+    assert wide_half_width(curved, radar, half_width, turned(2.0)) is not None
+    assert wide_half_width(curved, radar, half_width, turned(30.0)) is None
 
 
 @pytest.mark.slow

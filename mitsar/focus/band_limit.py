@@ -70,21 +70,31 @@ def wide_half_width(raw: xr.Dataset, radar: Radar, half_width: float,
                     positions: NDArray) -> float | None:
     """Half width in direction sine of the wider aperture that :func:`band_limit_image` needs
     on the grid ``positions`` (shape (A, B, 3) [m]), or None where the band is left to the
-    focuser:
-    a grid that is not 2-D, a straight uniform track (``"doppler"`` selects the band without a
-    sliding aperture), or no room for a wider aperture. The widening is :data:`WIDENING`, less
-    where the pixels sample it too coarsely (the wide band ``W B`` about the centre must not
-    fold into the kept band ``B``: ``W <= 2 / (B dy) - 1``, dy the azimuth spacing; below 2 no
-    widening), and None where it would exceed the beam's ``lambda / l_AZ`` or a band
-    ``4 v h / lambda`` beyond the sweep rate (which would alias in slow time)."""
+    focuser: a grid that is not 2-D, a straight uniform track (``"doppler"`` selects the band
+    without a sliding aperture), or no room for a wider aperture. The widening is
+    :data:`WIDENING`, less where the pixels sample it too coarsely (the wide band ``W B`` about
+    the centre must not fold into the kept band ``B``: ``W <= 2 / (B dy) - 1``, dy the azimuth
+    spacing; below 2 no widening), and None where it would exceed the beam's
+    ``lambda / l_AZ`` or a band ``4 v h / lambda`` beyond the sweep rate (which would alias in
+    slow time), or where the grid's azimuth axis turns from the mean track by more than
+    ``sin(theta) = NODE_STEP B c / (2 B_rf)`` (3.6 deg at the paper's radar and rho = 0.1 m:
+    the range band would spill across the azimuth band)."""
     positions = np.asarray(positions, dtype=float)
     if positions.ndim != 3 or min(positions.shape[:2]) < 2 or is_uniform_straight_track(raw):
         return None
-    spacing = np.linalg.norm(_azimuth_step(positions, raw)[0])
+    step = _azimuth_step(positions, raw)[0]
+    spacing = float(np.linalg.norm(step))
+    heading = np.asarray(raw["platform_velocity"].values, dtype=float).mean(axis=0)
+    heading /= max(float(np.linalg.norm(heading)), 1e-300)
+    across = float(np.linalg.norm(step - (step @ heading) * heading)) / spacing
     bandwidth = 4.0 * half_width / radar.wavelength  # B = 1 / rho [cyc/m]
     widening = min(WIDENING, 2.0 / (bandwidth * spacing) - 1.0)
     wide = widening * half_width
     if widening < 2.0 or wide >= aperture_half_width(radar, None):
+        return None
+    # an azimuth axis turned by theta from the track sees the range band 2 B_rf / c spread by
+    # sin(theta): beyond a node step of the band, a band-pass along it would cut range content
+    if 2 * radar.bandwidth / SPEED_OF_LIGHT * across > NODE_STEP * bandwidth:
         return None
     speed = float(np.linalg.norm(raw["platform_velocity"].values, axis=-1).max())
     if 4 * speed * wide / radar.wavelength > sweep_rate(raw, radar):
