@@ -34,6 +34,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numpy as np
+import scipy.fft as sp_fft
 import xarray as xr
 from numpy.typing import NDArray
 
@@ -46,8 +47,8 @@ from mitsar.focus.windows import evaluate_window, window_coefficients
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
 from mitsar.products.raw import sweep_rate
 
-__all__ = ["FLAT_TOP", "NODE_STEP", "WIDENING", "azimuth_bandpass", "band_limit_image",
-           "band_limited_focus", "wide_half_width"]
+__all__ = ["BLOCK_SAMPLES", "FLAT_TOP", "NODE_STEP", "WIDENING", "azimuth_bandpass",
+           "band_limit_image", "band_limited_focus", "wide_half_width"]
 
 WIDENING = 4.0
 """Width of the back-projected per-pixel aperture in units of the processed band. The flat
@@ -59,6 +60,9 @@ FLAT_TOP = np.array([22.0, 15.0, -6.0, 1.0]) / 32.0
 """Cosine-series coefficients (:mod:`mitsar.focus.windows`) of the maximally flat window of
 four terms: ``w(0) = 1``, ``w''(0) = w''''(0) = 0``, ``w(+-1/2) = 0`` at the offset from the
 centre; 1 - 0.3 % at +-1/8, 0.875 at +-1/4, smooth (no sharp edge to leak)."""
+
+BLOCK_SAMPLES = 1 << 22
+"""Samples (padded rows x columns) per FFT of :func:`azimuth_bandpass`: 64 MiB of complex128."""
 
 NODE_STEP = 1.0 / 16.0
 """Spacing of the centre-frequency nodes of :func:`azimuth_bandpass` in units of the band
@@ -123,7 +127,8 @@ def azimuth_bandpass(image: NDArray, centre: NDArray, spacing: float, bandwidth:
     ``q = (nu - f) / kernel_bandwidth + 1/2``, scaled by ``mean(kernel_window)
     kernel_bandwidth / (mean(window) bandwidth)``; evaluated on nodes :data:`NODE_STEP`
     bandwidths apart with hat-function weights (linear in the centre), on a spectrum
-    zero-padded to three times the image (no wrap of the filter's tails).
+    zero-padded to three times the image (no wrap of the filter's tails), by blocks of
+    columns (:data:`BLOCK_SAMPLES`).
 
     Parameters
     ----------
@@ -149,17 +154,13 @@ def azimuth_bandpass(image: NDArray, centre: NDArray, spacing: float, bandwidth:
     period = 1.0 / spacing
     if bandwidth >= period or rows < 2:  # nothing to take away: the band fills the sampling
         return image.copy()
-    size = 3 * rows
+    size = sp_fft.next_fast_len(3 * rows)
     frequency = np.fft.fftfreq(size, spacing)
     scale = (float(kernel_window[0]) * kernel_bandwidth) / (float(window[0]) * bandwidth)
     step = NODE_STEP * bandwidth
     nodes = np.arange(np.floor(centre.min() / step), np.ceil(centre.max() / step) + 1) * step
-    out = np.zeros(image.shape, dtype=np.result_type(image.dtype, np.complex64))
-    for node in nodes:  # one FFT pair per centre-frequency node, over the columns it touches
-        weight = np.clip(1.0 - np.abs(centre - node) / step, 0.0, None)
-        columns = np.flatnonzero(weight.any(axis=0))
-        if len(columns) == 0:
-            continue
+    gains = []
+    for node in nodes:  # the band about each centre-frequency node, with its window gain
         offset = (frequency - node + period / 2) % period - period / 2
         inside = np.abs(offset) <= bandwidth / 2
         gain = np.zeros(size)
@@ -167,9 +168,18 @@ def azimuth_bandpass(image: NDArray, centre: NDArray, spacing: float, bandwidth:
             evaluate_window(window, np.clip(offset[inside] / bandwidth + 0.5, 0.0, 1.0))
             / evaluate_window(kernel_window,
                               np.clip(offset[inside] / kernel_bandwidth + 0.5, 0.0, 1.0)))
-        part = weight[:, columns] * image[:, columns]
-        spectrum = np.fft.fft(part, n=size, axis=0)
-        out[:, columns] += np.fft.ifft(spectrum * gain[:, None], axis=0)[:rows]
+        gains.append(gain)
+    out = np.zeros(image.shape, dtype=np.result_type(image.dtype, np.complex64))
+    block = max(1, BLOCK_SAMPLES // size)  # columns per FFT: bounded memory on large images
+    for start in range(0, image.shape[1], block):
+        columns = slice(start, start + block)
+        for node, gain in zip(nodes, gains, strict=True):  # one FFT pair per node it touches
+            weight = np.clip(1.0 - np.abs(centre[:, columns] - node) / step, 0.0, None)
+            if not weight.any():
+                continue
+            spectrum = sp_fft.fft(weight * image[:, columns], n=size, axis=0, workers=-1)
+            out[:, columns] += sp_fft.ifft(spectrum * gain[:, None], axis=0,
+                                           workers=-1)[:rows]
     return out
 
 
