@@ -46,6 +46,7 @@ from mitsar.focus.bp_setup import aperture_weights, beat_band, normalise, prepar
 from mitsar.focus.bp_tiled import backproject_tiled
 from mitsar.focus.grid import track_frame
 from mitsar.focus.interpolation import DEFAULT_INTERPOLATION, check_interpolation
+from mitsar.focus.reuse import reuse
 from mitsar.model.radar import Radar
 
 __all__ = ["crop_to_pixels", "curved_sweep_range", "focus_bpa"]
@@ -131,7 +132,8 @@ def focus_bpa(raw: xr.Dataset, pixels: NDArray, *, half_width: float, window: st
     weights = None
     how = {"interpolation": range_interpolation}
     if bp.band_selection == "pixel" and not bp.straight and half_width < bp.beam_half_width:
-        aspect = aspect_frames(pixels, positions, bp.velocities, bp.centroid)
+        aspect = reuse("aspect_frames", (pixels, positions, bp.velocities, bp.centroid),
+                       lambda: aspect_frames(pixels, positions, bp.velocities, bp.centroid))
     if backend == "numpy":
         results = [backproject_numpy(*arguments, pixels[c], *common, aspect=_rows(aspect, c),
                                      receivers=bp.receivers, **how)
@@ -142,8 +144,10 @@ def focus_bpa(raw: xr.Dataset, pixels: NDArray, *, half_width: float, window: st
                                   len(positions), bp.mean_centroid, bp.kernel_half_width,
                                   coordinates)
         else:  # any track: a safe bound from a coarse search (curved_sweep_range)
-            ranges = curved_sweep_range(pixels, positions, bp.velocities, bp.centroid,
-                                        bp.kernel_half_width, aspect)
+            ranges = reuse("curved_sweep_range", (pixels, positions, bp.velocities,
+                                                  bp.centroid, bp.kernel_half_width, aspect),
+                           lambda: curved_sweep_range(pixels, positions, bp.velocities,
+                                                      bp.centroid, bp.kernel_half_width, aspect))
         # By pixel groups (bp_tiled) on the CPU; on a GPU the exact kernel is the faster one
         # (1.6-1.9x the groups on an H100, docs/gpu.md §6), and a bistatic channel needs it.
         if bp.receivers is None and backend_name() != "cuda":
