@@ -27,6 +27,7 @@ from mitsar.focus.motion import is_straight_track
 from mitsar.focus.nesz import noise_variables
 from mitsar.focus.passes import COMBINE, focus_passes
 from mitsar.focus.referenced import focus_referenced
+from mitsar.focus.reuse import geometry_shared, shared_geometry
 from mitsar.focus.volume import focus_ffbp_volume
 from mitsar.focus.windows import WINDOWS
 from mitsar.model.radar import Radar
@@ -125,6 +126,9 @@ def focus(raw: xr.Dataset | Sequence[xr.Dataset], algorithm: str = "bpa",
         positions), attributes ``range_resolution``, ``azimuth_resolution``, ``range_axis``,
         ``azimuth_axis``, grid description and provenance.
     """
+    if autofocus is not None and not geometry_shared():  # the refocus reuses the geometry
+        with shared_geometry():  # of the first focus (mitsar.focus.reuse)
+            return focus(**locals())
     if isinstance(raw, list | tuple):  # several passes onto the same pixels (focus.passes)
         return focus_passes(raw, algorithm, grid, combine, lambda one, chosen: focus(
             one, algorithm, chosen, window=window, range_window=range_window,
