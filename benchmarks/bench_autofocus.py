@@ -13,25 +13,26 @@ offset, peak level and IRW against the error-free image (true track).
 
     .venv/bin/python benchmarks/bench_autofocus.py --rounds 7
 
-Measured (2026-11-27, 2 shared cores, no GPU; 7 rounds at load 4.2-4.6, so single rounds
-scatter by 2x; focus = the band-limited default since 1fafd1f, autofocus focuses with
-band_limit=False twice):
+Measured (2026-11-27, 2 shared cores, no GPU; single rounds scatter by up to 2x with the
+load; focus = the band-limited default since 1fafd1f, while autofocus focuses with
+band_limit=False, the per-pixel band it models):
 
-* focus median 2.04 s, focus with band_limit=False 1.07 s; entropy 1.99 s, PGA 1.87 s:
-  entropy / focus median 0.99 (per round 0.66-1.82), PGA 1.19; against the band_limit=False
-  focus that autofocus runs, entropy 2.44 and PGA 2.50.
-* The estimate alone (range compression, lines, chips, L-BFGS; alternately in one
-  process, 9 rounds at load 2.3-4.2): 0.19 s against 0.25 s before this change (1.36x less,
-  0.30 instead of 0.40 of a 0.62 s focus); L-BFGS 0.1 s of it (114-139 iterations).
-  Autofocus = uncorrected focus + estimate + refocus, so against the same focus its ratio is
-  2 + 0.3 here: below 2 needs the refocus to reuse the first focus's geometry
-  (mitsar.focus.aperture.aspect_frames and bpa.curved_sweep_range depend on the track and the
-  pixels only and were 95 % of a focus on this room at 05:00 UTC), not done here.
-* Restored against the error-free image: entropy peak -0.07 dB, offset (-0.84, -2.59) cm,
-  azimuth IRW +0.1 %; PGA -0.07 dB, (+0.86, -2.55) cm, +0.3 %; the errors alone -7.24 dB.
-  The -2.5 cm in ground range is the offset's cross-track part (a quarter of the 10.7 cm
-  range cell); the azimuth offsets are the along-track part and the unobservable linear phase
-  (docs/autofocus.md).
+* With the refocus reusing the first focus's geometry (mitsar.focus.reuse, e0c6092), 7 rounds
+  at load 1.7-2.1: focus median 1.29 s, with band_limit=False 0.68 s; **entropy 1.14 s:
+  0.92x the default focus, 1.68x the band_limit=False one** (per round 0.53-1.56 and
+  best times 0.82 against the default); PGA 0.97 s (0.82x, 1.49x); estimate + refocus of the
+  last entropy call 0.30 s.
+* Before that reuse (refocus = a whole second focus), 7 rounds at load 4.2-4.6: entropy
+  0.99x the default focus, 2.44x the band_limit=False one; PGA 1.19x, 2.50x. Before this
+  work: entropy median 2.47x (load ~3, 30 iterations a stage).
+* The estimate alone (range compression, lines, chips, L-BFGS; old and new code alternately
+  in one process, 9 rounds at load 2.3-4.2): 0.19 s against 0.25 s before (0.30 instead of
+  0.40 of a 0.62 s focus); L-BFGS 0.1 s of it (114-139 iterations).
+* Restored against the error-free image (load 1.7-2.1 run): entropy peak -0.06 dB, offset
+  (-0.83, -2.59) cm, azimuth IRW -0.1 %; PGA -0.05 dB, (+0.86, -2.55) cm, +0.1 %; the errors
+  alone -7.23 dB. The -2.5 cm in ground range is the offset's cross-track part (a quarter of
+  the 10.7 cm range cell); the azimuth offsets are the along-track part and the unobservable
+  linear phase (docs/autofocus.md).
 """
 
 from __future__ import annotations
