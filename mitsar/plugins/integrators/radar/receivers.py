@@ -18,11 +18,12 @@ of a chunk rigorously; :func:`receiver_polynomial_holds` admits the chunk when t
 below :data:`RECEIVER_PHASE_TOLERANCE` and :data:`RECEIVER_BIN_TOLERANCE`, and the kernel
 evaluates the exact half path per sweep otherwise.
 
-**The bound.** Chebyshev interpolation of degree ``n`` errs by at most
-``max|F^(n+1)| / (2^n (n+1)!)`` on [-1, 1] (Trefethen, *Approximation Theory and
-Approximation Practice*, SIAM 2013, Thm 8.1 / eq. 8.2 with the node polynomial
-``T_{n+1}/2^n``), and Cauchy's estimate on a disc of radius ``r`` around each real ``t``, where
-``|F| <= M``, gives ``|F^(n+1)(t)| <= (n+1)! M / r^(n+1)``: together ``M / (2^n r^(n+1))``. With
+**The bound.** Interpolation of degree ``n`` at the Chebyshev zeros errs by at most
+``max|F^(n+1)| / (2^n (n+1)!)`` on [-1, 1] (the interpolation remainder with the node
+polynomial ``T_{n+1}/2^n``: Mason & Handscomb, *Chebyshev Polynomials*, Chapman & Hall/CRC
+2003, ch. 6), and Cauchy's estimate on a disc of radius ``r`` around each real ``t``, where
+``|F| <= M``, gives ``|F^(n+1)(t)| <= (n+1)! M / r^(n+1)`` (Ahlfors, *Complex Analysis*, 3rd
+ed., McGraw-Hill 1979, ch. 4 §2.3): together ``M / (2^n r^(n+1))``. With
 ``R_c`` the closest range of a candidate to the transmitter over the chunk, ``R_c' = R_c - |b|``,
 ``η = |h|`` and ``κ = r η / R_c' < √2 - 1``: ``|Q(t + w) / Q(t) - 1| <= ρ = 2κ + κ²`` for
 ``Q = |o|²`` (and for the receiver's), so both square roots are analytic on the disc with
