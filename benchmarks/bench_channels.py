@@ -21,8 +21,9 @@ transmitter would disagree with the transmitter's (the tracer shares the transmi
 
 Measured on this 2-core machine (shared by other sessions, load 1.8-2.1), ``--rounds 9``:
 one receiver 1788 channels x sweeps/s (143 ms), two 2290 (224 ms): the tracer's wall 1.56x
-(1.37x in another best-of-15 run: the spread is the load's), its kernels 1.51x (61 -> 93 ms),
-the block kernel 1.75x (37 -> 65 ms; IR 1722 -> 2538 operations); analytic 3.1x, BPA 2.3x.
+(1.43x at load 0.7, 1.37x in a best-of-15 run: the spread is the load's), its kernels 1.51x
+(61 -> 93 ms), the block kernel 1.75x (37 -> 65 ms; IR 1722 -> 2538 operations); analytic
+3.1x, BPA 2.3x.
 The issue's < 1.3x is not met (docs/interferometry.md §8 "Cost" says what is left).
 ``--visibility``: ``control_volume`` 0 of 851,855 in-beam deposits; the room test's 0.2 m box
 on a floor 154 of 406,278 (0.038 %).
