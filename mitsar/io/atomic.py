@@ -1,6 +1,6 @@
 """Atomic output: files and folders written beside their final name and moved into place.
 
-A file is written to a temporary ``.NAME.PID.XXXX.tmpSUFFIX`` in the destination folder and
+A file is written to a temporary ``.NAME.PID.RANDOM.tmpSUFFIX`` in the destination folder and
 moved into place with :func:`os.replace` (atomic on one file system), so that a failed or
 interrupted write never leaves a partial product, and an existing file is only replaced when
 asked to (:func:`atomic_output`, :func:`atomic_writer`); a folder (a ``.zarr`` store) likewise
@@ -114,7 +114,7 @@ STALE_AGE = 3600.0
 def remove_stale_temporaries(path: str | os.PathLike) -> list[Path]:
     """Remove the temporaries a killed writer left beside ``path`` (docs/reliability.md §5).
 
-    :func:`atomic_output` names its temporary file ``.NAME.PID.XXXX.tmpSUFFIX`` and
+    :func:`atomic_output` names its temporary file ``.NAME.PID.RANDOM.tmpSUFFIX`` and
     :func:`atomic_directory` its temporary folder (a ``.zarr`` store) the same way, plus
     ``....tmpSUFFIX.old`` for the store it sets aside while replacing it; one whose process no
     longer runs is stale (SIGKILL leaves it behind). Older names without a process id are
