@@ -35,6 +35,12 @@ load 4.4: 1.44x / 1.41x. 4096 x 1024^2, load 5.0 -> 5.8: mitsar 5.66 s / 3.49 CP
 FastSAR grid 14.6 s / 14.5 CPU-s, -84.0 dB; points 184 s, -44.2 dB: 2.59x (wall), 4.16x (per
 CPU-s). The 2x is reached at 4096 x 1024^2, not at 1000 x 512^2, where the pixel-group kernel
 (85-90 % of mitsar's CPU time) is limited by the cubic's 32-byte packet loads.
+Re-measured the same day on the quiet machine (load 0.45-1.4, one other session idle):
+1000 x 512^2: mitsar 0.358-0.371 s / 0.69 CPU-s, FastSAR grid 0.431-0.456 s / 0.85-0.88 CPU-s:
+**1.20-1.23x (wall)**, 1.24-1.28x per CPU-s (under load FastSAR slows more than mitsar, hence
+the 1.44-1.59x above); ``--interpolation linear --range-upsample 64`` (-72.7 dB): 0.301 s,
+1.44x. 4096 x 1024^2: mitsar 2.16 s / 3.94 CPU-s, FastSAR grid 7.82 s / 15.4 CPU-s: 3.62x
+(wall), 3.90x per CPU-s. Issue 24's 2x holds at the large size only.
 
 Counts: pixel-pulses = pixels x sweeps for every tool (mitsar sums, per pixel, only the
 sweeps whose line of sight lies in the beam; FastSAR every sweep). Wall time is what counts;
