@@ -46,6 +46,8 @@ def phase_centres(trajectory: Trajectory, absolute_time: NDArray,
     if offsets is None or not (np.any(offsets[0]) or np.any(offsets[1])):
         return platform, None
     attitude = np.moveaxis(trajectory.attitude_at(absolute_time), -1, 0)
+    if all(np.all(angle == angle.flat[0]) for angle in attitude):  # held attitude: rotate once
+        attitude = attitude.reshape(3, -1)[:, :1]
     transmitter = platform + body_offset_to_world(offsets[0], *attitude)
     if np.array_equal(offsets[0], offsets[1]):
         return transmitter, None
