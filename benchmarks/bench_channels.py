@@ -24,6 +24,8 @@ one receiver 1788 channels x sweeps/s (143 ms), two 2290 (224 ms): the tracer's 
 (1.43x at load 0.7, 1.37x in a best-of-15 run: the spread is the load's), its kernels 1.51x
 (61 -> 93 ms), the block kernel 1.75x (37 -> 65 ms; IR 1722 -> 2538 operations); analytic
 3.1x, BPA 2.3x.
+After the block-buffered synthesis (quiet machine, load 0.2-0.8, ``--rounds 9``): one
+receiver 131 ms, two 185 ms: 1.41x; kernels 1.55x; block kernel 1.75x; analytic 2.2x.
 The issue's < 1.3x is not met (docs/interferometry.md §8 "Cost" says what is left).
 ``--visibility``: ``control_volume`` 0 of 851,855 in-beam deposits; the room test's 0.2 m box
 on a floor 154 of 406,278 (0.038 %).
