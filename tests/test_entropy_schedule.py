@@ -6,7 +6,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from mitsar.focus.autofocus.entropy import _observable_size, minimise, trend_weight
+from mitsar.focus.autofocus.entropy import (
+    EntropyOptions,
+    _observable_size,
+    estimate_entropy,
+    image_entropy,
+    minimise,
+    trend_weight,
+)
 from mitsar.focus.autofocus.phase import remove_linear_phase, wrap
 
 
@@ -71,3 +78,24 @@ def test_the_trend_is_taken_where_the_scatterers_are_strong():
     tilted = remove_linear_phase(estimate, energy > 0) - remove_linear_phase(truth, weight)
     slope = np.polyfit(sweeps[centre], np.unwrap(wrap(tilted[centre])), 1)[0]
     assert abs(slope) > 1e-3
+
+
+def test_the_returned_phase_is_the_kept_stage():
+    """The estimate returned (and applied to the raw) is the stage ``kept_stage`` names: the
+    check chips' entropy under the returned phase equals ``check_entropy_final``, and a kept
+    stage 0 returns no correction. Check chips already focused at zero phase (a coherent
+    column), a model smeared by a random-walk phase: stages disagree, so the choice matters."""
+    rng = np.random.default_rng(0)
+    sweeps, pixels = 64, 32
+    error = np.cumsum(rng.normal(0, 0.5, sweeps))
+    k, q = np.arange(sweeps)[:, None], np.arange(pixels)[None, :]
+    terms = (np.exp(2j * np.pi * k * q / pixels / 4) * np.exp(1j * error)[:, None]
+             ).astype(np.complex64)
+    check = np.zeros((sweeps, 2), np.complex64)
+    check[:, 0], check[:, 1] = 1.0, (-1.0) ** np.arange(sweeps)
+    for margin in (0.0, EntropyOptions().check_margin):
+        phase, info = estimate_entropy(terms, EntropyOptions(check_margin=margin), check=check)
+        found = image_entropy((check * np.exp(-1j * phase)[:, None]).sum(axis=0))
+        assert abs(found - info["check_entropy_final"]) < 1e-6
+        if info["kept_stage"] == 0:
+            assert np.all(phase == 0)

@@ -460,6 +460,7 @@ def estimate_entropy(source: NDArray | AzimuthLines, options: EntropyOptions,
     # is kept only when it is clearly sharper (over-fitted per-sweep phases), not for noise
     best = min(scores)
     kept = max(n for n, score in enumerate(scores) if score <= best + options.check_margin)
+    phase = estimates[kept]
     shift, finest = 0.0, len(estimates) - 1
     if lines is not None and cell and 0 < kept < finest:
         # a coarser stage kept over the finest (whose per-sweep phases out-sharpened the
@@ -467,7 +468,12 @@ def estimate_entropy(source: NDArray | AzimuthLines, options: EntropyOptions,
         # uncertain by the difference
         now, power = line_peaks(lines, phase)
         other, _ = line_peaks(lines, estimates[finest])
-        shift = float(_weighted_median(now - other, power)) / cell
+        spacing = lines.offsets[:, 1] - lines.offsets[:, 0] if lines.offsets.shape[1] > 1 \
+            else np.zeros(len(now))
+        period = np.where(spacing != 0, spacing * lines.offsets.shape[1], np.inf)
+        moved = now - other
+        moved -= np.where(np.isfinite(period), period * np.round(moved / period), 0.0)
+        shift = float(_weighted_median(moved, power)) / cell  # within one alias period
     position_settled = abs(shift) <= options.shift_cells
     entropy_final = image_entropy(
         (active * np.exp(-1j * phase[rows]).astype(np.complex64)[:, None]).sum(axis=0))
