@@ -150,6 +150,7 @@ def focus(raw: xr.Dataset | Sequence[xr.Dataset], algorithm: str = "bpa",
         raise ParameterError("focus", "algorithm", f"one of {ALGORITHMS}", algorithm)
     checks.integer("focus", "range_upsample", range_upsample, 1)
     check_interpolation("focus", range_interpolation)
+    band_limit = checks.boolean("focus", "band_limit", band_limit)
     if pixel_chunk is not None:
         checks.integer("focus", "pixel_chunk", pixel_chunk, 1)
     if window not in WINDOWS:
@@ -192,7 +193,8 @@ def focus(raw: xr.Dataset | Sequence[xr.Dataset], algorithm: str = "bpa",
             algorithm_options=algorithm_options, progress=progress,
             motion_compensation=motion_compensation, autofocus=method,
             autofocus_options=autofocus_options, range_interpolation=range_interpolation,
-            band_limit=band_limit), autofocus)
+            # one band selection for every channel: channel 0's autofocus turns it off
+            band_limit=band_limit and not autofocus), autofocus)
 
     radar = radar_of(raw)
     if int(raw.attrs.get("sweep_stride", 1)) > 1 and algorithm not in ("bpa", "ffbp"):
