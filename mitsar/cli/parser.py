@@ -174,6 +174,9 @@ def build_parser() -> argparse.ArgumentParser:
                      help="processed azimuth resolution [m]")
     sub.add_argument("--full-aperture", action="store_true",
                      help="process the whole beam (ignore any azimuth resolution)")
+    sub.add_argument("--band-limit", action=argparse.BooleanOptionalAction, default=None,
+                     help="band-limit BPA/FFBP images off a straight track to the azimuth "
+                     "resolution (default: the experiment's [focus] band_limit, else on)")
     sub.add_argument("--grid", metavar="GRID.toml",
                      help="output grid: a TOML file with a [grid] table (or [focus.grid])")
     sub.add_argument("--default-grid", action="store_true",

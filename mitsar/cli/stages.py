@@ -83,6 +83,8 @@ def _focus_options(args: argparse.Namespace, raw: Any) -> Any:
         changes["azimuth_resolution"] = args.azimuth_resolution
     if args.full_aperture:
         changes["azimuth_resolution"] = None
+    if args.band_limit is not None:
+        changes["band_limit"] = args.band_limit
     if args.autofocus is not None:
         changes["autofocus"] = None if args.autofocus == "none" else args.autofocus
     if args.grid is not None:

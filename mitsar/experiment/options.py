@@ -88,6 +88,10 @@ class FocusOptions:
         algorithm choose its default slant-range grid.
     autofocus : {"pga", "entropy"} or None
         Autofocus after back-projection (``docs/autofocus.md``); ``None``: none.
+    band_limit : bool
+        Band-limit BPA's and FFBP's 2-D images off a straight track to the processed azimuth
+        resolution (:mod:`mitsar.focus.band_limit`, ``docs/focusing.md``); False keeps each
+        pixel's own aperture band.
     """
 
     algorithm: str = "bpa"
@@ -95,6 +99,7 @@ class FocusOptions:
     azimuth_resolution: float | None = None
     grid: dict[str, Any] | None = None
     autofocus: str | None = None
+    band_limit: bool = True
 
     def make_grid(self) -> Any:
         """The output grid object, or ``None`` for the algorithm's default grid."""

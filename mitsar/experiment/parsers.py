@@ -327,19 +327,21 @@ def _physical_optics(t: Table) -> bool | tuple[str, ...]:
 
 
 def parse_focus(t: Table | None) -> FocusOptions:
-    """``[focus]``: algorithm, window, azimuth_resolution, autofocus and ``[focus.grid]``."""
+    """``[focus]``: algorithm, window, azimuth_resolution, autofocus, band_limit and
+    ``[focus.grid]``."""
     if t is None:
         return FocusOptions()
     algorithm = t.string("algorithm", "bpa", choices=ALGORITHMS)
     window = t.string("window", "rect", choices=WINDOWS)
     resolution = t.number("azimuth_resolution", None, unit="m", gt=0, le=MAX_AZIMUTH_RESOLUTION)
     autofocus = t.string("autofocus", None, choices=AUTOFOCUS_METHODS)
+    band_limit = bool(t.boolean("band_limit", True))
     grid_table = t.table("grid")
     grid = parse_grid(grid_table) if grid_table is not None else None
     if grid is not None:
         t.out["grid"] = grid
     t.finish()
-    options = FocusOptions(algorithm, window, resolution, grid, autofocus)
+    options = FocusOptions(algorithm, window, resolution, grid, autofocus, band_limit)
     check_grid(t, options)
     return options
 
