@@ -30,6 +30,9 @@ Attributes
     algorithm's default grid.
 ``focus_autofocus``
     Autofocus method; absent: none.
+``focus_band_limit``
+    1: band-limit BPA's and FFBP's images off a straight track (:mod:`mitsar.focus.band_limit`),
+    0: not; absent: 1.
 """
 
 from __future__ import annotations
@@ -58,6 +61,7 @@ REQUEST_ATTRS: dict[str, str] = {
     "focus_azimuth_resolution": "processed azimuth resolution [m] (absent: full beam)",
     "focus_grid": "output grid table, JSON (absent: the algorithm's default)",
     "focus_autofocus": "autofocus method (absent: none)",
+    "focus_band_limit": "1: band-limit images off a straight track, 0: not (absent: 1)",
 }
 """The request attributes a raw product may carry (module docstring)."""
 
@@ -90,7 +94,7 @@ def request_attrs(*, config: Mapping[str, Any] | None = None, source: str | None
         ISLR side-lobe extent.
     focus : mapping, optional
         ``algorithm``, ``window``, ``azimuth_resolution`` [m], ``grid`` (table),
-        ``autofocus``; None values are left out.
+        ``autofocus``, ``band_limit`` (bool, written 0 or 1); None values are left out.
 
     Returns
     -------
@@ -115,6 +119,8 @@ def request_attrs(*, config: Mapping[str, Any] | None = None, source: str | None
         attrs["metrics_target"] = [float(v) for v in np.ravel(metrics_target)]
     attrs["metrics_islr_extent"] = islr_extent
     for key, value in (focus or {}).items():
+        if isinstance(value, bool):  # netCDF has no boolean attribute
+            value = int(value)
         if value is not None:
             attrs[f"focus_{key}"] = json.dumps(value) if isinstance(value, dict) else value
     return attrs
@@ -139,9 +145,10 @@ def metrics_request(product: xr.Dataset) -> tuple[list[float] | None, str | floa
 
 def focus_request(product: xr.Dataset) -> dict[str, Any]:
     """The focus options recorded in a raw product: ``algorithm``, ``window``,
-    ``azimuth_resolution``, ``grid`` (a table), ``autofocus``; only those present."""
+    ``azimuth_resolution``, ``grid`` (a table), ``autofocus``, ``band_limit`` (bool); only those
+    present."""
     out: dict[str, Any] = {}
-    for key in ("algorithm", "window", "azimuth_resolution", "grid", "autofocus"):
+    for key in ("algorithm", "window", "azimuth_resolution", "grid", "autofocus", "band_limit"):
         value = product.attrs.get(f"focus_{key}")
         if value is None:
             continue
@@ -149,6 +156,8 @@ def focus_request(product: xr.Dataset) -> dict[str, Any]:
             value = json.loads(value) if isinstance(value, str) else dict(value)
         elif key == "azimuth_resolution":
             value = float(value)
+        elif key == "band_limit":
+            value = bool(int(value))
         else:
             value = str(value)
         out[key] = value
