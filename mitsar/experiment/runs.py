@@ -592,7 +592,7 @@ def run_focus(raw: xr.Dataset, options: FocusOptions, progress: bool = False) ->
     raw : xarray.Dataset
         A raw product.
     options : FocusOptions
-        Algorithm, window, azimuth resolution, grid and autofocus.
+        Algorithm, window, azimuth resolution, grid, autofocus and band limit.
     progress : bool
         Show a progress bar when the algorithm supports one.
 
@@ -604,7 +604,7 @@ def run_focus(raw: xr.Dataset, options: FocusOptions, progress: bool = False) ->
     extra = {} if options.autofocus is None else {"autofocus": options.autofocus}
     image = focus(raw, algorithm=options.algorithm, grid=options.make_grid(),
                   window=options.window, azimuth_resolution=options.azimuth_resolution,
-                  progress=progress, **extra)
+                  progress=progress, band_limit=options.band_limit, **extra)
     return carry_requests(raw, image)
 
 
@@ -639,7 +639,7 @@ def run_focus_passes(raws: list[xr.Dataset], options: FocusOptions, combine: str
     """
     image = focus(list(raws), algorithm=options.algorithm, grid=options.make_grid(),
                   window=options.window, azimuth_resolution=options.azimuth_resolution,
-                  progress=progress, combine=combine)
+                  progress=progress, combine=combine, band_limit=options.band_limit)
     return carry_requests(raws[0], image)
 
 
