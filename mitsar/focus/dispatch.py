@@ -277,7 +277,8 @@ def focus(raw: xr.Dataset | Sequence[xr.Dataset], algorithm: str = "bpa",
         return image
     settings = PulseSettings(half_width=half_width, window=window, range_window=range_window,
                              remove_rvp=remove_rvp, motion_correction=motion_correction,
-                             range_upsample=range_upsample)
+                             range_upsample=range_upsample,
+                             range_interpolation=range_interpolation)
     return run_autofocus(raw, image, lambda corrected: focus(
         corrected, algorithm, grid, window=window, range_window=range_window,
         azimuth_resolution=azimuth_resolution, remove_rvp=remove_rvp,

@@ -8,13 +8,15 @@ lambda``, the same for every pixel of a small scene) multiplies every ``c_k(x)``
 ``exp(j phi_k)``, so ``I(x; phi) = sum_k w_k(x) c_k(x) exp(-j phi_k)`` after a correction.
 
 The terms are computed here with the same pure functions as the BP sum (:func:`beat_frequency`,
-:func:`profile_position`, :func:`interpolate`, :func:`carrier_turns`, :func:`derotate`), on the
-same range profiles (:func:`mitsar.focus.compression.range_spectrum`) and with the same azimuth
-weights as "pixel" band selection (:func:`mitsar.focus.aperture.doppler_geometry`): for any
-track, straight or curved, and for recordings referenced to a scene point
-(:mod:`mitsar.focus.referenced`: ``tau = 2 (R - R_ref,k) / c``, no delay rate, periodic
-profile). They are the estimation model only; the corrected image is formed by the focuser
-itself (:mod:`mitsar.focus.autofocus.driver`).
+:func:`profile_position`, :func:`carrier_turns`, :func:`derotate`), the focuser's interpolation
+of the profile (:mod:`mitsar.focus.interpolation`: the same taps, coefficients and edge
+extrapolation, ``range_interpolation``), on the same range profiles
+(:func:`mitsar.focus.compression.range_spectrum`) and with the same azimuth weights as "pixel"
+band selection (:func:`mitsar.focus.aperture.doppler_geometry`): for any track, straight or
+curved, and for recordings referenced to a scene point (:mod:`mitsar.focus.referenced`:
+``tau = 2 (R - R_ref,k) / c``, no delay rate, periodic profile).
+They are the estimation model only; the corrected image is formed by the focuser itself
+(:mod:`mitsar.focus.autofocus.driver`).
 """
 
 from __future__ import annotations
@@ -29,10 +31,10 @@ from mitsar.focus.aperture import aperture_half_width, doppler_geometry
 from mitsar.focus.backprojection import (
     carrier_turns,
     derotate,
-    interpolate,
     profile_position,
 )
 from mitsar.focus.compression import range_spectrum
+from mitsar.focus.interpolation import DEFAULT_INTERPOLATION, coefficients, horner, numpy_fma
 from mitsar.focus.windows import evaluate_window, window_coefficients
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
 from mitsar.model.signal import beat_frequency
@@ -60,6 +62,8 @@ class PulseSettings:
         As :func:`mitsar.focus.focus`.
     range_upsample : int
         Zero-padding factor of the range FFT.
+    range_interpolation : {"linear", "cubic"}
+        Interpolation of the range profiles (:mod:`mitsar.focus.interpolation`).
     """
 
     half_width: float | None = None
@@ -68,6 +72,7 @@ class PulseSettings:
     remove_rvp: bool = True
     motion_correction: bool = True
     range_upsample: int = 8
+    range_interpolation: str = DEFAULT_INTERPOLATION
 
 
 @dataclass(frozen=True)
@@ -149,9 +154,12 @@ def contributions(data: PulseData, points: NDArray, sweeps: NDArray | slice = sl
                   ) -> NDArray:
     """De-rotated profile values ``c_k(x)`` of points x in sweeps k, shape (S, P), complex.
 
-    Steps 1-3 of :mod:`mitsar.focus.backprojection`: the profile is read (linear interpolation)
-    at the point's beat frequency and de-rotated by ``exp(-j 2 pi f_c tau)``. Positions off the
-    profile axis give 0 (dechirped data) or wrap round (referenced data, periodic profile).
+    Steps 1-3 of :mod:`mitsar.focus.backprojection`: the profile is read at the point's beat
+    frequency with the focuser's ``range_interpolation``
+    (:func:`mitsar.focus.interpolation.coefficients`; taps past a dechirped profile's ends
+    extrapolated linearly, as :func:`mitsar.focus.interpolation.coefficient_table` does) and
+    de-rotated by ``exp(-j 2 pi f_c tau)``. Positions off the profile axis give 0 (dechirped
+    data) or wrap round (referenced data, periodic profile).
     ``sweeps`` (indices or a slice) limits the rows to those sweeps (default all).
     """
     points = np.asarray(points, dtype=float).reshape(-1, 3)
@@ -162,15 +170,19 @@ def contributions(data: PulseData, points: NDArray, sweeps: NDArray | slice = sl
                                        np.floor)
     lower = lower.astype(np.int64)
     inside = np.ones(lower.shape, dtype=bool)
+    rows = np.arange(profile.shape[0])[sweeps][:, None]
     if data.reference_range is not None:
-        upper = (lower + 1) % bins
-        lower %= bins
+        taps = [profile[rows, (lower + offset) % bins] for offset in (-1, 0, 1, 2)]
     else:
         inside = (lower >= 0) & (lower < bins - 1)
         lower = np.clip(lower, 0, bins - 2)
-        upper = lower + 1
-    rows = np.arange(profile.shape[0])[sweeps][:, None]
-    value = interpolate(profile[rows, lower], profile[rows, upper], fraction)
+        taps = [profile[rows, lower], profile[rows, lower + 1]]
+        before = np.where(lower > 0, profile[rows, np.maximum(lower - 1, 0)],
+                          2 * taps[0] - taps[1])
+        after = np.where(lower < bins - 2, profile[rows, np.minimum(lower + 2, bins - 1)],
+                         2 * taps[1] - taps[0])
+        taps = [before, *taps, after]
+    value = horner(coefficients(*taps, data.settings.range_interpolation), fraction, numpy_fma)
     phase = 2 * np.pi * carrier_turns(delay, data.radar.carrier_frequency, np.floor)
     real, imag = derotate(value.real, value.imag, np.sin(phase), np.cos(phase))
     return np.where(inside, real + 1j * imag, 0.0)
