@@ -25,11 +25,13 @@ from mitsar.focus.bp_tiled import (
     backproject_tiled,
     lane_layout,
     row_step,
+    shared_slots,
     sincos_turns,
 )
 from mitsar.focus.compression import range_spectrum
 from mitsar.focus.grid import PlaneGrid, PointsGrid, SlantGrid
 from mitsar.focus.windows import window_coefficients
+from mitsar.model.radar import SPEED_OF_LIGHT
 
 RADAR = mitsar.Radar()
 TARGET = np.array([15.0, 8.0, 0.0])
@@ -142,6 +144,58 @@ def test_sincos_in_turns_is_float32_accurate():
     sine, cosine = sincos_turns(jit.Float32(turns.astype(np.float32)))
     assert np.abs(np.asarray(sine) - np.sin(2 * np.pi * turns)).max() < 1.5e-6
     assert np.abs(np.asarray(cosine) - np.cos(2 * np.pi * turns)).max() < 1.5e-6
+
+
+@pytest.mark.parametrize("rows_along, expected", [(0, 16), (1, 4)])
+def test_neighbours_share_a_lookup_where_their_positions_span_one_bin(raw, rows_along,
+                                                                      expected):
+    """Step 5 of bp_tiled on 3 mm rows at 8x zero-padding: along the track (x) the range to a
+    pixel changes by the along-track direction sine times 3 mm, so sixteen pixels share each
+    cubic packet; across it (y, towards the target) by up to 3 mm, a quarter of a bin, so
+    four do. The sums match the float64 per-pixel sum at -80 dB (the echo's spectrum lies
+    well inside the band edge, where the wider interval's extra error is far below its
+    bound) and the one-packet-per-pixel kernel; the actual lookup positions (float64 range and
+    Doppler term, every pixel and sweep) of S neighbours span less than one bin, i.e.
+    shared_slots' bound holds where it is used."""
+    frequency, profile = range_spectrum(raw["raw"].values, RADAR, upsample=8)
+    positions = raw["platform_position"].values
+    velocities = raw["platform_velocity"].values
+    centroid = raw["boresight"].values @ np.array([1.0, 0, 0])
+    row, across = np.arange(-0.096, 0.096, 0.003), np.arange(-0.02, 0.02, 0.005)
+    a, b = np.meshgrid(row, across)  # row-major: the row coordinate runs fastest
+    xy = [a, b] if rows_along == 0 else [b, a]
+    pixels = TARGET + np.stack([*xy, 0 * a], -1).reshape(-1, 3)
+    arguments = (profile, frequency, RADAR, pixels, positions, velocities, centroid, 0.15,
+                 window_coefficients("rect"))
+    reference, _ = backproject_numpy(*arguments)
+    shared, _, info = backproject_tiled(*arguments, row_length=len(row))
+    single, _, single_info = backproject_tiled(*arguments, row_length=len(row),
+                                               share_lookups=False)
+    assert info["shared_lookup"] == expected and single_info["shared_lookup"] == 1
+    assert _error_db(shared, reference) <= TOLERANCE_DB
+    assert _error_db(shared, single) <= TOLERANCE_DB
+    # the actual lookup positions [bins] of every pixel and sweep
+    line = pixels[None] - positions[:, None]                     # (sweeps, pixels, 3)
+    distance = np.linalg.norm(line, axis=-1)
+    speed = np.linalg.norm(velocities, axis=-1)
+    sine = np.einsum("kpi,ki->kp", line, velocities) / distance / speed[:, None]
+    where = (RADAR.beat_frequency(distance)
+             - RADAR.carrier_frequency * 2 / SPEED_OF_LIGHT * speed[:, None] * sine
+             ) / (frequency[1] - frequency[0])
+    change = np.abs(np.diff(where.reshape(len(positions), len(across), len(row)))).max()
+    assert (expected - 1) * change < 1.0
+
+
+def test_shared_lookups_need_finer_rows_than_bins():
+    """shared_slots across the track: 3 mm rows share by four, 6 mm by two, 15 mm (more than
+    a bin of 12.5 mm per pixel) not at all."""
+    frequency = np.arange(100) * 31.25
+    positions = np.stack([np.linspace(14.6, 15.4, 200), np.full(200, 1.4), np.full(200, 4.5)],
+                         -1)
+    velocities = np.tile([0.5, 0.0, 0.0], (200, 1))
+    for spacing, expected in ((0.003, 4), (0.006, 2), (0.015, 1)):
+        assert shared_slots(np.array([0.0, spacing, 0.0]), 32, frequency, RADAR, TARGET[None],
+                            16 * spacing, positions, velocities) == expected
 
 
 def test_lookups_off_the_profile_are_masked_as_in_the_float64_sum(raw):

@@ -34,6 +34,7 @@ from mitsar.focus.compression import range_spectrum
 from mitsar.focus.grid import track_frame
 from mitsar.focus.windows import window_coefficients
 from mitsar.model.geometry.attitude import body_offset_to_world
+from mitsar.model.geometry.bounds import bounding_box
 from mitsar.model.radar import Radar
 from mitsar.model.signal import fast_time
 from mitsar.products.raw import radar_of, sweep_rate
@@ -50,7 +51,7 @@ def beat_band(radar: Radar, points: NDArray, positions: NDArray, max_speed: floa
     by the largest Doppler shift ``f_c v / K`` (in range), half a metre and ``range_margin``
     [m].
     """
-    low_corner, high_corner = points.min(axis=0), points.max(axis=0)
+    low_corner, high_corner = bounding_box(points)
     nearest = np.clip(positions, low_corner, high_corner)
     corners = np.array(np.meshgrid(*zip(low_corner, high_corner, strict=True),
                                    indexing="ij")).reshape(3, -1).T

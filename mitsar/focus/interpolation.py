@@ -54,8 +54,8 @@ from mitsar.backend import drjit as dr  # imported when a kernel runs (LazyModul
 from mitsar.errors import ParameterError
 
 __all__ = ["DEFAULT_INTERPOLATION", "INTERPOLATIONS", "check_interpolation", "coefficients",
-           "coefficient_table", "error_bound", "horner", "jit_packets", "kernel_packets",
-           "lookup",
+           "coefficient_table", "error_bound", "evaluate", "horner", "jit_packets",
+           "kernel_packets", "lookup", "packet",
            "numpy_fma"]
 
 INTERPOLATIONS = ("linear", "cubic")
@@ -102,10 +102,16 @@ def horner(terms: tuple[Any, ...], fraction: Any, fma: Callable[[Any, Any, Any],
     return value
 
 
-def error_bound(upsample: float, interpolation: str) -> float:
-    """Largest relative error (module eq. 2) of a component at the band edge ``1 / (2 U)``."""
+def error_bound(upsample: float, interpolation: str, shared: bool = False) -> float:
+    """Largest relative error (module eq. 2) of a component at the band edge ``1 / (2 U)``.
+
+    ``shared``: a cubic evaluated on ``t`` in [-1/2, 3/2) instead of [0, 1) (a lookup shared
+    by neighbouring pixels, :mod:`mitsar.focus.bp_tiled`), where ``|(t + 1) t (t - 1) (t - 2)|
+    <= 15 / 16`` (at both ends) instead of ``9 / 16``: 5/3 of the bound (+4.4 dB)."""
     x = np.pi / upsample
-    return x ** 2 / 8 if interpolation == "linear" else 3 * x ** 4 / 128
+    if interpolation == "linear":
+        return x ** 2 / 8
+    return (5 if shared else 3) * x ** 4 / 128
 
 
 def coefficient_table(profile: NDArray, interpolation: str, periodic: bool = False) -> NDArray:
@@ -179,14 +185,29 @@ def lookup(packets: Any, flat: Any, fraction: Any, active: Any, interpolation: s
            ) -> tuple[Any, Any]:
     """Real and imaginary parts of the profile at bin ``flat`` (a row-major index into the
     (sweep, bin) table of :func:`kernel_packets`) plus ``fraction`` (Dr.Jit, float32): one
-    (linear) or two (cubic) 16-byte packet loads, masked by ``active``, and :func:`horner`."""
+    packet load (:func:`packet`), masked by ``active``, and :func:`evaluate`."""
+    return evaluate(packet(packets, flat, active, interpolation), fraction)
+
+
+def packet(packets: Any, flat: Any, active: Any, interpolation: str
+           ) -> tuple[tuple[Any, ...], tuple[Any, ...]]:
+    """The coefficients of bin ``flat`` (Dr.Jit): real parts and imaginary parts, each a tuple
+    of ``TERMS[interpolation]`` float32 arrays; one 16-byte (linear) or 32-byte (cubic)
+    packet load, zeros where ``active`` is false."""
     jit = namespace_of(packets)
     index = jit.UInt32(flat)
     if interpolation == "linear":
         taps = dr.gather(jit.Array4f, packets, index, active)
-        return (horner((taps[0], taps[2]), fraction, dr.fma),
-                horner((taps[1], taps[3]), fraction, dr.fma))
+        return (taps[0], taps[2]), (taps[1], taps[3])
     words = dr.gather(jit.Array4u64, packets, index, active)   # one 32-byte packet
     real = [dr.reinterpret_array(jit.Float32, jit.UInt32(w)) for w in words]
     imag = [dr.reinterpret_array(jit.Float32, jit.UInt32(w >> 32)) for w in words]
-    return horner(tuple(real), fraction, dr.fma), horner(tuple(imag), fraction, dr.fma)
+    return tuple(real), tuple(imag)
+
+
+def evaluate(coefficients: tuple[tuple[Any, ...], tuple[Any, ...]], fraction: Any
+             ) -> tuple[Any, Any]:
+    """Real and imaginary parts of a :func:`packet`'s polynomial at ``fraction`` (module eq. 1,
+    :func:`horner`)."""
+    real, imag = coefficients
+    return horner(real, fraction, dr.fma), horner(imag, fraction, dr.fma)
