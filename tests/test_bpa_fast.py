@@ -188,14 +188,24 @@ def test_neighbours_share_a_lookup_where_their_positions_span_one_bin(raw, rows_
 
 def test_shared_lookups_need_finer_rows_than_bins():
     """shared_slots across the track: 3 mm rows share by four, 6 mm by two, 15 mm (more than
-    a bin of 12.5 mm per pixel) not at all."""
+    a bin of 12.5 mm per pixel) not at all; along it by more, as the window allows."""
     frequency = np.arange(100) * 31.25
     positions = np.stack([np.linspace(14.6, 15.4, 200), np.full(200, 1.4), np.full(200, 4.5)],
                          -1)
     velocities = np.tile([0.5, 0.0, 0.0], (200, 1))
+    centroid = np.zeros(200)
     for spacing, expected in ((0.003, 4), (0.006, 2), (0.015, 1)):
         assert shared_slots(np.array([0.0, spacing, 0.0]), 32, frequency, RADAR, TARGET[None],
-                            16 * spacing, positions, velocities) == expected
+                            16 * spacing, positions, velocities, centroid, 0.15,
+                            False) == expected
+    # along the track the window bounds the direction sine: 3 mm rows share by 16 in a 0.15
+    # half-width window, edge fractions or not, by 8 in a 0.3 one, by 4 squinted by 0.4
+    along = np.array([0.003, 0.0, 0.0])
+    for half_width, squint, expected in ((0.15, 0.0, 16), (0.3, 0.0, 8), (0.3, 0.4, 4)):
+        for fractional in (False, True):
+            assert shared_slots(along, 32, frequency, RADAR, TARGET[None], 0.05, positions,
+                                velocities, centroid + squint, half_width,
+                                fractional) == expected
 
 
 def test_lookups_off_the_profile_are_masked_as_in_the_float64_sum(raw):

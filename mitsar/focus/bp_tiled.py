@@ -74,11 +74,13 @@ from numpy.typing import NDArray
 
 from mitsar.backend import array_namespace, namespace_of, safe_width
 from mitsar.backend import drjit as dr  # imported when a kernel runs (LazyModule)
+from mitsar.focus.aperture import median_sweep_interval
 from mitsar.focus.backprojection import (
     SMALLEST_WINDOW_STEP,
     backproject_drjit,
     carrier_turns,
     edge_fraction,
+    fractional_edges,
     inverse_window_step,
     jit_array,
     kernel_tables,
@@ -247,38 +249,55 @@ SHARED_SLOTS = (16, 8, 4, 2)
 
 
 def shared_slots(step: NDArray, size: int, frequency: NDArray, radar: Radar, centres: NDArray,
-                 reach: float, positions: NDArray, velocities: NDArray) -> int:
+                 reach: float, positions: NDArray, velocities: NDArray,
+                 centroid_sine: NDArray, half_width: float, fractional: bool) -> int:
     """Pixels of a regular row that may share one lookup (module step 5): the largest S of
     :data:`SHARED_SLOTS` dividing the lane size whose lookup positions span at most one bin,
     ``(S - 1) sigma <= 1``, else 1.
 
-    ``sigma`` bounds the change of the lookup position from one slot to the next [bins]. The
-    slots lie in the box ``B`` of the lane centres widened by ``reach``; the range to a point
-    ``x`` of ``B`` changes along the row step ``A`` at the rate ``A . (x - p) / |x - p|``,
-    whose size is at most ``|A| c`` with ``c = max |A^ . (x - p)| / min |x - p|`` over the
-    antenna positions p (numerator at a corner of ``B``: it is linear in x; denominator: the
-    distance from p to ``B``), and the direction sine by at most ``2 |A| / R`` (``R`` the
-    nearest range), so ``sigma = |A| (b c + 2 d / R)`` with ``b`` bins per metre of range and
-    ``d`` the largest Doppler shift in bins (``f_c |v| / K`` in range), and 1 % of margin for
-    the float32 polynomials of eqs. (1)-(2). Along the track ``c`` is the largest
-    along-track direction sine (a quarter or less), across it up to 1.
+    ``sigma`` bounds the change of the lookup position from one slot to the next [bins] in a
+    group of S slots of which one at least is in the window. The range changes along the row
+    step ``A`` at the rate ``|A| A^.u`` (u the unit line of sight), and ``|A^.u| <= |a|
+    |v^.u| + sqrt(1 - a^2)`` with ``a = A^.v^`` (v^ the sweep's direction of motion); a slot in
+    the window has ``|v^.u - u_c| <= h'``, ``h' = h`` plus, with edge fractions, half the
+    largest step of window offset from one sweep to the next (``|v| T / R``, floored as
+    :func:`mitsar.focus.backprojection.inverse_window_step` floors it), and its group's
+    other slots are within ``(S - 1) |A| / R`` of its direction sine (``R``: the nearest range
+    from the slots, within ``reach`` of their lane centres, to the track); so ``c = max_k
+    min(1, |a_k| (|u_c,k| + h' + (S - 1) |A| / R) + sqrt(1 - a_k^2))``. The direction sine
+    changes by at most ``2 |A| / R`` per slot, which moves the Doppler term. Hence ``sigma =
+    |A| (b c + 2 d / R)`` with ``b`` bins per metre of range and ``d`` the largest Doppler
+    shift in bins (``f_c |v| / K`` in range), and 1 % of margin for the float32 polynomials of
+    eqs. (1)-(2). Along the track ``c`` is about the window's largest direction sine, across
+    it 1. ``c`` depends on the track and the window, not on which pixels are focused together
+    (a volume focused in slabs shares as the whole; ``R`` enters the small terms only).
     """
     df = float(frequency[1] - frequency[0])
     per_metre = 2 * radar.chirp_rate / (SPEED_OF_LIGHT * df)
-    doppler = (2 * radar.carrier_frequency / (SPEED_OF_LIGHT * df)
-               * float(np.linalg.norm(velocities, axis=-1).max(initial=0.0)))
+    speed = np.linalg.norm(velocities, axis=-1)
+    doppler = 2 * radar.carrier_frequency / (SPEED_OF_LIGHT * df) * float(speed.max(initial=0))
     low, high = bounding_box(centres)
     low, high = low - reach, high + reach
-    distance = np.linalg.norm(positions - np.clip(positions, low, high), axis=-1)
-    if distance.min() <= 0:
-        return 1
+    nearest = float(np.linalg.norm(positions - np.clip(positions, low, high), axis=-1).min())
     length = float(np.linalg.norm(step))
-    corners = np.array(np.meshgrid(*zip(low, high, strict=True),
-                                   indexing="ij")).reshape(3, -1).T
-    along = np.abs((corners[None] - positions[:, None]) @ (step / length)).max(axis=1)
-    cosine = min(1.0, float((along / distance).max()))
-    sigma = 1.01 * length * (per_metre * cosine + 2 * doppler / float(distance.min()))
-    return next((s for s in SHARED_SLOTS if size % s == 0 and (s - 1) * sigma <= 1), 1)
+    if nearest <= 0 or length == 0 or not (speed > 0).all():
+        return 1
+    along = np.abs(velocities @ (step / length)) / speed       # |A^.v^| per sweep
+    across = np.sqrt(np.maximum(1 - along**2, 0.0))
+    window = half_width
+    if fractional:  # edge fractions reach half a sweep's step of window offset past h
+        window += 0.5 * max(float(speed.max()) * median_sweep_interval(positions, velocities)
+                            / nearest, SMALLEST_WINDOW_STEP)
+    for slots in SHARED_SLOTS:
+        if size % slots:
+            continue
+        spread = (slots - 1) * length / nearest
+        cosine = min(1.0, float((along * (np.abs(centroid_sine) + window + spread)
+                                 + across).max()))
+        sigma = 1.01 * length * (per_metre * cosine + 2 * doppler / nearest)
+        if (slots - 1) * sigma <= 1:
+            return slots
+    return 1
 
 
 def backproject_tiled(profile: NDArray, frequency: NDArray, radar: Radar, pixels: NDArray,
@@ -361,7 +380,8 @@ def backproject_tiled(profile: NDArray, frequency: NDArray, radar: Radar, pixels
     if share_lookups and step is not None and frames is None and not checked \
             and interpolation == "cubic":
         shared = shared_slots(step, groups.shape[1], frequency, radar, centre[good], reach,
-                              positions, velocities)
+                              positions, velocities, centroid_sine, half_width,
+                              fractional_edges(radar, half_width))
     sums, totals, done = _run_lanes(profile, frequency, radar, centre[good][order],
                                     offsets[good][order] if step is None else step,
                                     lane_first[order], lane_end[order], frames, positions,

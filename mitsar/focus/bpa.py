@@ -109,12 +109,9 @@ def focus_bpa(raw: xr.Dataset, pixels: NDArray, *, half_width: float, window: st
     """
     check_interpolation("focus", range_interpolation)
     # 1.-2. band selection and range compression, cropped to the pixels
-    # the Dr.Jit kernels read float32 packets: their profiles in complex64 (FFTs ~2x faster,
-    # ~1e-7 of the peak, below the kernels' float32 sums); the NumPy sum keeps float64
     bp = prepare(raw, half_width=half_width, window=window, range_window=range_window,
                  remove_rvp=remove_rvp, range_upsample=range_upsample,
-                 band_selection=band_selection, points=pixels,
-                 profile_dtype=np.complex128 if backend == "numpy" else np.complex64)
+                 band_selection=band_selection, points=pixels)
     radar, positions = bp.radar, bp.positions
     frequency, profile = bp.frequency, bp.profile  # the pixels' band (beat_band) already
     # 3. back-projection in pixel chunks
