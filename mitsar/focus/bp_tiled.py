@@ -167,11 +167,11 @@ def row_step(pixels: NDArray, row_length: int | None, tolerance: float = 1e-9
     if not row_length or row_length < 2 or len(pixels) % row_length:
         return None
     rows = pixels.reshape(-1, row_length, 3)
-    steps = np.diff(rows, axis=1)
-    step = steps[0, 0]
-    if np.abs(steps - step).max() > tolerance:
-        return None
-    return step
+    step = rows[0, 1] - rows[0, 0]
+    steps = np.subtract(rows[:, 1:], rows[:, :-1])   # one temporary, reused in place
+    steps -= step
+    np.abs(steps, out=steps)
+    return None if steps.max() > tolerance else step
 
 
 def _nearest_range(centre: NDArray, positions: NDArray) -> NDArray:
@@ -524,11 +524,12 @@ def lane_loop(lane: dict, first: Any, end: Any, sweep_arrays: list, pairs: Any,
                                                    for a in sweep_arrays[:8])
         wx, wy, wz = cx - gx, cy - gy, cz - gz                      # float64
         r = dr.sqrt(wx * wx + wy * wy + wz * wz)
-        inverse = dr.rcp(r)
-        ux, uy, uz = Float32(wx * inverse), Float32(wy * inverse), Float32(wz * inverse)
-        inverse32 = Float32(inverse)
-        half_inverse = Float32(0.5 * inverse)
-        half_inverse2 = Float32(0.5 * inverse * inverse)
+        # 1/r and u in float32 (they scale the pixel offsets, |d| <= h, only): no float64
+        # division per lane and sweep
+        inverse32 = dr.rcp(Float32(r))
+        ux, uy, uz = Float32(wx) * inverse32, Float32(wy) * inverse32, Float32(wz) * inverse32
+        half_inverse = 0.5 * inverse32
+        half_inverse2 = half_inverse * inverse32
         lower, fraction = profile_position(r * constants["range_scale"],
                                            -constants["index_offset"], 1.0, dr.floor)
         base = Int32(lower)
