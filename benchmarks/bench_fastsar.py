@@ -8,7 +8,8 @@ float64 reference:
 * **mitsar** ``focus(raw, "bpa", PlaneGrid)`` at focus()'s defaults (4-tap Lagrange cubic
   interpolation of 8x zero-padded profiles, :mod:`mitsar.focus.interpolation`), whole beam,
   rect window: band selection, range compression, the Dr.Jit sum (by row segments,
-  :mod:`mitsar.focus.bp_tiled`), normalisation, the image product. ``--range-upsample`` and
+  :mod:`mitsar.focus.bp_tiled`, neighbours sharing a cubic lookup), normalisation, the image
+  product. ``--range-upsample`` and
   ``--interpolation`` time other choices (linear 16x, the old default, is -48 dB on this
   image). Accuracy against ``focus(..., backend="numpy")`` on a random subset of the pixels:
   at 32x cubic (float64; the cubic's error bound there is -113 dB, module eq. 2 of
@@ -27,20 +28,16 @@ FastSAR gets the same sweeps as a frequency-domain phase history: RVP removed, c
 accuracy is measured against the exact float64 sum ``sum_p sum_k S[p, k] exp(+j 4 pi f_k dR /
 c)`` (no interpolation at all) on the same subset of pixels.
 
-Measured on 27 November 2026 (2 CPUs shared with six other sessions; docs/focusing.md, "Exact
-BPA by pixel groups", has the full table), mitsar at its defaults against the grid path:
-1000 x 512^2, load 3.8 -> 6.6: mitsar 1.28 s wall / 0.65 CPU-s, -70.9 dB; FastSAR grid 2.04 s /
-1.00 CPU-s, -85.3 dB; points 11.4 s, -44.3 dB: 1.59x (wall), 1.53x (per CPU-s); another run at
-load 4.4: 1.44x / 1.41x. 4096 x 1024^2, load 5.0 -> 5.8: mitsar 5.66 s / 3.49 CPU-s, -65.9 dB;
-FastSAR grid 14.6 s / 14.5 CPU-s, -84.0 dB; points 184 s, -44.2 dB: 2.59x (wall), 4.16x (per
-CPU-s). The 2x is reached at 4096 x 1024^2, not at 1000 x 512^2, where the pixel-group kernel
-(85-90 % of mitsar's CPU time) is limited by the cubic's 32-byte packet loads.
-Re-measured the same day on the quiet machine (load 0.45-1.4, one other session idle):
-1000 x 512^2: mitsar 0.358-0.371 s / 0.69 CPU-s, FastSAR grid 0.431-0.456 s / 0.85-0.88 CPU-s:
-**1.20-1.23x (wall)**, 1.24-1.28x per CPU-s (under load FastSAR slows more than mitsar, hence
-the 1.44-1.59x above); ``--interpolation linear --range-upsample 64`` (-72.7 dB): 0.301 s,
-1.44x. 4096 x 1024^2: mitsar 2.16 s / 3.94 CPU-s, FastSAR grid 7.82 s / 15.4 CPU-s: 3.62x
-(wall), 3.90x per CPU-s. Issue 24's 2x holds at the large size only.
+Measured on 27 November 2026 after the shared cubic lookups (mitsar.focus.bp_tiled step 5:
+neighbouring pixels of a row read one packet), quiet 2-CPU machine (load 1.1-1.9):
+1000 x 512^2: mitsar 0.228 s / 0.42 CPU-s, -71.1 dB; FastSAR grid 0.456 s / 0.89 CPU-s,
+-85.3 dB; points 3.17 s, -44.3 dB: **2.01x (wall), 2.12x per CPU-s**; three other runs the
+same hour 1.86x, 1.90x and 1.99x (wall), 2.00-2.09x per CPU-s: at 512^2 the 2x is met per
+CPU-second and at the edge in wall time (mitsar's NumPy set-up, ~45 ms, runs on one core).
+4096 x 1024^2: mitsar 1.14 s / 2.07 CPU-s, -65.8 dB; FastSAR grid 7.14 s / 14.2 CPU-s,
+-84.0 dB: **6.24x (wall), 6.83x per CPU-s**. Before the shared lookups (one 32-byte packet
+per pixel and sweep): 1.20-1.23x and 3.62x (wall); docs/focusing.md, "Exact BPA by pixel
+groups", has the history.
 
 Counts: pixel-pulses = pixels x sweeps for every tool (mitsar sums, per pixel, only the
 sweeps whose line of sight lies in the beam; FastSAR every sweep). Wall time is what counts;
