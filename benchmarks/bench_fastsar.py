@@ -32,7 +32,7 @@ Measured on 27 November 2026 after the shared cubic lookups (mitsar.focus.bp_til
 neighbouring pixels of a row read one packet), quiet 2-CPU machine (load 1.1-1.9):
 1000 x 512^2: mitsar 0.228 s / 0.42 CPU-s, -71.1 dB; FastSAR grid 0.456 s / 0.89 CPU-s,
 -85.3 dB; points 3.17 s, -44.3 dB: **2.01x (wall), 2.12x per CPU-s**; three other runs the
-same hour 1.86x, 1.90x and 1.99x (wall), 2.00-2.09x per CPU-s: at 512^2 the 2x is met per
+same hour 1.92x, 1.94x and 1.96x (wall), 2.03-2.12x per CPU-s: at 512^2 the 2x is met per
 CPU-second and at the edge in wall time (mitsar's NumPy set-up, ~45 ms, runs on one core).
 4096 x 1024^2: mitsar 1.14 s / 2.07 CPU-s, -65.8 dB; FastSAR grid 7.14 s / 14.2 CPU-s,
 -84.0 dB: **6.24x (wall), 6.83x per CPU-s**. Before the shared lookups (one 32-byte packet
