@@ -266,3 +266,30 @@ def test_edge_fractions_give_the_weight_of_the_continuous_aperture(raw):
     exact, exact_total = backproject_drjit(*arguments)
     assert np.abs(exact - reference).max() <= 1e-6 * np.abs(reference).max()
     np.testing.assert_allclose(exact_total, reference_total, rtol=1e-5)
+
+
+def test_pixel_chunks_make_the_profile_coefficients_once(raw, monkeypatch):
+    """A focus by pixel chunks packs (Dr.Jit) or tabulates (NumPy) the profile's coefficients
+    once for all the chunks, and gives the image of one chunk bit for bit (a pixel's sum does
+    not depend on which pixels share its call)."""
+    from mitsar.focus import backprojection, bp_tiled, bpa
+
+    grid = PlaneGrid(origin=TARGET, axis_u=[1, 0, 0], axis_v=[0, 1, 0],
+                     u=[-0.1, 0.1, 0.004], v=[-0.05, 0.05, 0.004])
+    whole = mitsar.focus(raw, "bpa", grid)["image"].values
+    calls = []
+    for module in (backprojection, bp_tiled, bpa):
+        original = module.jit_packets
+        monkeypatch.setattr(module, "jit_packets",
+                            lambda *a, _f=original, **k: calls.append(1) or _f(*a, **k))
+    chunked = mitsar.focus(raw, "bpa", grid, pixel_chunk=200)["image"].values
+    assert len(calls) == 1
+    np.testing.assert_array_equal(chunked, whole)
+    tables = []
+    original_table = bpa.coefficient_table
+    monkeypatch.setattr(bpa, "coefficient_table",
+                        lambda *a, **k: tables.append(1) or original_table(*a, **k))
+    one = mitsar.focus(raw, "bpa", grid, backend="numpy")["image"].values
+    parts = mitsar.focus(raw, "bpa", grid, backend="numpy", pixel_chunk=200)["image"].values
+    assert len(tables) == 1   # the chunked call only
+    np.testing.assert_array_equal(parts, one)

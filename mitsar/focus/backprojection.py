@@ -221,7 +221,8 @@ def backproject_numpy(profile: NDArray, frequency: NDArray, radar: Radar, pixels
                       motion_correction: bool = True,
                       aspect: tuple[NDArray, NDArray] | None = None,
                       receivers: NDArray | None = None,
-                      interpolation: str = DEFAULT_INTERPOLATION) -> tuple[NDArray, NDArray]:
+                      interpolation: str = DEFAULT_INTERPOLATION,
+                      table: NDArray | None = None) -> tuple[NDArray, NDArray]:
     """Reference back-projection in NumPy (same sum as the Dr.Jit kernel, all in memory).
 
     Parameters
@@ -251,6 +252,9 @@ def backproject_numpy(profile: NDArray, frequency: NDArray, radar: Radar, pixels
         centimetres away changes them by ~1e-5).
     interpolation : {"cubic", "linear"}
         Interpolation of the profiles (:mod:`mitsar.focus.interpolation`).
+    table : ndarray, optional
+        The profile's :func:`mitsar.focus.interpolation.coefficient_table` if already made
+        (a focus by pixel chunks makes it once).
 
     Returns
     -------
@@ -283,7 +287,7 @@ def backproject_numpy(profile: NDArray, frequency: NDArray, radar: Radar, pixels
     inside = np.clip(offset, -half_width, half_width) / (2 * half_width) + 0.5
     weight = np.where(fraction > 0, evaluate_window(window, inside) * fraction, 0.0)
     return pulse_sum(profile, frequency, delay, beat, weight, radar.carrier_frequency,
-                     interpolation=interpolation)
+                     interpolation=interpolation, table=table)
 
 
 def _kernel_inputs(pixels: NDArray, sweeps: int, velocities: NDArray, window: NDArray,
@@ -306,9 +310,11 @@ def backproject_drjit(profile: NDArray, frequency: NDArray, radar: Radar, pixels
                       sweep_range: tuple[NDArray, NDArray] | None = None,
                       aspect: tuple[NDArray, NDArray] | None = None,
                       receivers: NDArray | None = None,
-                      interpolation: str = DEFAULT_INTERPOLATION
+                      interpolation: str = DEFAULT_INTERPOLATION, packets: Any = None
                       ) -> tuple[NDArray, NDArray]:
-    """Back-projection as one Dr.Jit kernel (parameters as :func:`backproject_numpy`).
+    """Back-projection as one Dr.Jit kernel (parameters as :func:`backproject_numpy`;
+    ``packets``: the profile's :func:`mitsar.focus.interpolation.jit_packets` if already on
+    the device, e.g. from an earlier pixel chunk).
 
     ``sweep_range``, optional per-pixel first and end sweep indices, limits each pixel to the
     sweeps that can see it inside the processed window
@@ -335,7 +341,7 @@ def backproject_drjit(profile: NDArray, frequency: NDArray, radar: Radar, pixels
     constants, sweep_arrays, pairs = kernel_tables(profile, frequency, radar, positions,
                                                    velocities, centroid_sine, half_width,
                                                    window, motion_correction, receivers,
-                                                   interpolation)
+                                                   interpolation, packets)
     index = groups.ravel()
     count = len(pixels)
     natural = bool(np.array_equal(index[:count], np.arange(count)))
@@ -382,10 +388,12 @@ def kernel_tables(profile: NDArray, frequency: NDArray, radar: Radar, positions:
                   velocities: NDArray, centroid_sine: NDArray, half_width: float,
                   window: NDArray, motion_correction: bool = True,
                   receivers: NDArray | None = None,
-                  interpolation: str = DEFAULT_INTERPOLATION) -> tuple[dict, list, Any]:
+                  interpolation: str = DEFAULT_INTERPOLATION,
+                  packets: Any = None) -> tuple[dict, list, Any]:
     """Constants, per-sweep geometry and packed profiles that :func:`pixel_pulse` reads.
 
-    Parameters as :func:`backproject_numpy`. Returns the kernel constants (opaque scalars:
+    Parameters as :func:`backproject_numpy` (``packets``: the packed profiles if already made,
+    returned as they are). Returns the kernel constants (opaque scalars:
     profile position of ``K tau`` and of the Doppler term, carrier turns per metre, bins,
     half width, window coefficients, sweep interval
     (:func:`mitsar.focus.aperture.median_sweep_interval`) for the edge fractions, and
@@ -422,7 +430,7 @@ def kernel_tables(profile: NDArray, frequency: NDArray, radar: Radar, positions:
                     + ([] if receivers is None else
                        [jit_array(Float64, receivers[:, i], np.float64) for i in range(3)]))
     # Profiles are read at random: one packet of coefficients per lookup.
-    pairs = jit_packets(profile, interpolation, jit_array)
+    pairs = jit_packets(profile, interpolation, jit_array) if packets is None else packets
     return constants, sweep_arrays, pairs
 
 

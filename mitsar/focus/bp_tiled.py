@@ -308,7 +308,8 @@ def backproject_tiled(profile: NDArray, frequency: NDArray, radar: Radar, pixels
                       row_length: int | None = None,
                       interpolation: str = DEFAULT_INTERPOLATION,
                       while_running: Callable[[], Any] | None = None,
-                      share_lookups: bool = True) -> tuple[NDArray, NDArray, dict]:
+                      share_lookups: bool = True, packets: Any = None
+                      ) -> tuple[NDArray, NDArray, dict]:
     """Back-projection by lanes of neighbouring pixels (module docstring).
 
     Parameters as :func:`mitsar.focus.backprojection.backproject_drjit` (monostatic only),
@@ -318,7 +319,9 @@ def backproject_tiled(profile: NDArray, frequency: NDArray, radar: Radar, pixels
     (no Dr.Jit) run while the kernel runs asynchronously, its result in ``info["while_running"]``;
     ``share_lookups``: let neighbouring pixels of a regular row share a cubic lookup (module
     step 5, where :func:`shared_slots` allows it; False: one lookup per pixel, the sum of
-    :func:`mitsar.focus.backprojection.backproject_numpy` to float32 rounding).
+    :func:`mitsar.focus.backprojection.backproject_numpy` to float32 rounding); ``packets``:
+    the profile's :func:`mitsar.focus.interpolation.jit_packets` if already made (an earlier
+    pixel chunk's).
 
     Returns
     -------
@@ -356,7 +359,7 @@ def backproject_tiled(profile: NDArray, frequency: NDArray, radar: Radar, pixels
         values, totals = backproject_drjit(profile, frequency, radar, pixels, positions,
                                            velocities, centroid_sine, half_width, window,
                                            motion_correction, sweep_range, aspect,
-                                           interpolation=interpolation)
+                                           interpolation=interpolation, packets=packets)
         info["while_running"] = while_running() if while_running else None
         return values, totals, info
     weighted_sum = np.zeros(count, dtype=complex)
@@ -387,7 +390,7 @@ def backproject_tiled(profile: NDArray, frequency: NDArray, radar: Radar, pixels
                                     lane_first[order], lane_end[order], frames, positions,
                                     velocities, centroid_sine, half_width, window,
                                     motion_correction, checked, groups.shape[1], interpolation,
-                                    while_running, shared)
+                                    while_running, shared, packets)
     keep = valid.ravel()
     weighted_sum[lanes.ravel()[keep]] = sums.ravel()[keep]
     total[lanes.ravel()[keep]] = totals.ravel()[keep]
@@ -398,7 +401,7 @@ def backproject_tiled(profile: NDArray, frequency: NDArray, radar: Radar, pixels
             profile, frequency, radar, pixels[rest], positions, velocities, centroid_sine,
             half_width, window, motion_correction, (first[rest], end[rest]),
             None if aspect is None else (aspect[0][rest], aspect[1][rest]),
-            interpolation=interpolation)
+            interpolation=interpolation, packets=packets)
         weighted_sum[rest], total[rest] = values, totals_rest
     return weighted_sum, total, {
         "lane_pixels": int(groups.shape[1]), "exact_pixels": int(len(rest)),
@@ -422,26 +425,28 @@ def _run_lanes(profile: NDArray, frequency: NDArray, radar: Radar, centre: NDArr
                centroid_sine: NDArray, half_width: float, window: NDArray,
                motion_correction: bool, checked: bool, size: int,
                interpolation: str = DEFAULT_INTERPOLATION,
-               while_running: Callable[[], Any] | None = None, shared: int = 1) -> tuple:
+               while_running: Callable[[], Any] | None = None, shared: int = 1,
+               packets: Any = None) -> tuple:
     """The Dr.Jit kernel over lanes: sums (L, G) complex, weight totals (L, G) and the result
     of ``while_running`` (called once the kernel is launched, None if not given).
 
     ``offsets``: (L, G, 3) pixel offsets, or the row step (3,) of regular lanes. A lane's
     sweeps run in one kernel lane per part of :data:`SWEEP_PARTS` that they touch; the parts
     are summed here. ``checked``: test every lookup against the profile's ends (else
-    :func:`_lookups_inside` holds); ``shared``: pixels per lookup (step 5, regular lanes).
+    :func:`_lookups_inside` holds); ``shared``: pixels per lookup (step 5, regular lanes);
+    ``packets``: the packed profiles if already made.
     """
     jit = array_namespace()
     Float32, Float64, UInt32 = jit.Float32, jit.Float64, jit.UInt32
     lanes = len(centre)
     regular = offsets.ndim == 1
+    # the interpolation coefficients of every bin: one packet (16 or 32 bytes) per lookup
+    pairs = jit_packets(profile, interpolation, jit_array) if packets is None else packets
     constants, sweep_arrays, _ = kernel_tables(profile[:, :2], frequency[:2], radar, positions,
                                                velocities, centroid_sine, half_width,
                                                window, motion_correction,
-                                               interpolation=interpolation)
+                                               interpolation=interpolation, packets=pairs)
     constants["bins"] = dr.opaque(UInt32, profile.shape[1])
-    # the interpolation coefficients of every bin: one packet (16 or 32 bytes) per lookup
-    pairs = jit_packets(profile, interpolation, jit_array)
     sweeps = len(positions)
     span = -(-sweeps // SWEEP_PARTS)          # a part: sweeps [j span, (j + 1) span)
     first_part = lane_first // span

@@ -41,11 +41,16 @@ from mitsar.focus.aperture import (
     sweep_window,
     track_coordinates,
 )
-from mitsar.focus.backprojection import backproject_drjit, backproject_numpy
+from mitsar.focus.backprojection import backproject_drjit, backproject_numpy, jit_array
 from mitsar.focus.bp_setup import aperture_weights, beat_band, normalise, prepare
 from mitsar.focus.bp_tiled import backproject_tiled
 from mitsar.focus.grid import track_frame
-from mitsar.focus.interpolation import DEFAULT_INTERPOLATION, check_interpolation
+from mitsar.focus.interpolation import (
+    DEFAULT_INTERPOLATION,
+    check_interpolation,
+    coefficient_table,
+    jit_packets,
+)
 from mitsar.focus.reuse import reuse
 from mitsar.model.radar import Radar
 
@@ -130,7 +135,11 @@ def focus_bpa(raw: xr.Dataset, pixels: NDArray, *, half_width: float, window: st
     aspect = None
     kernel = {"bp_kernel": "numpy" if backend == "numpy" else "exact"}
     weights = None
-    how = {"interpolation": range_interpolation}
+    how: dict = {"interpolation": range_interpolation}
+    if len(chunks) > 1:  # the profile's coefficients made once for all the chunks
+        how["table" if backend == "numpy" else "packets"] = (
+            coefficient_table(profile, range_interpolation) if backend == "numpy"
+            else jit_packets(profile, range_interpolation, jit_array))
     if bp.band_selection == "pixel" and not bp.straight and half_width < bp.beam_half_width:
         aspect = reuse("aspect_frames", (pixels, positions, bp.velocities, bp.centroid),
                        lambda: aspect_frames(pixels, positions, bp.velocities, bp.centroid))
