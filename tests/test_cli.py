@@ -303,3 +303,15 @@ def test_global_options_before_or_after_the_command_and_defaults_in_help(capsys)
     # The demo offers only bundled experiments with a target to measure.
     assert "paper_point_target" in demo_examples()
     assert not {"ambiguity_control_volume", "dihedral_3d"} & set(demo_examples())
+
+
+@pytest.mark.parametrize("command", [["montecarlo"], ["sweep", "--vary", "seed=1,2"]])
+def test_overwrite_on_a_resuming_command_says_what_to_do(command, tmp_path, capsys):
+    """``--overwrite`` is refused by the commands that resume their folder, naming the option,
+    what they do instead and what to pass (not argparse's "unrecognized arguments")."""
+    with pytest.raises(SystemExit) as stop:
+        main([command[0], "experiment.toml", "-o", str(tmp_path), *command[1:], "--overwrite"])
+    assert stop.value.code == 2
+    error = capsys.readouterr().err
+    assert "--overwrite does not apply" in error and "--restart" in error
+    assert "unrecognized" not in error

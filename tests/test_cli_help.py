@@ -84,7 +84,8 @@ def test_docs_cli_lists_every_command_and_its_options(name):
     section = _section(text, name)
     missing = []
     for action in COMMANDS[name]._actions:
-        if not action.option_strings or "--help" in action.option_strings:
+        if (not action.option_strings or "--help" in action.option_strings
+                or action.help == argparse.SUPPRESS):  # hidden: a refusal, not an option
             continue
         option = max(action.option_strings, key=len)
         if option in GLOBAL_OPTIONS:
@@ -100,11 +101,13 @@ def test_docs_cli_lists_every_command_and_its_options(name):
 
 
 def test_docs_cli_says_which_commands_take_overwrite():
-    """--overwrite is no global option: sweep and montecarlo refuse it (they resume instead)."""
+    """--overwrite is no global option: sweep and montecarlo refuse it (they resume instead;
+    a hidden option that only explains the refusal)."""
     text = DOCS_CLI.read_text()
     options = text[text.index("Options every command accepts"):text.index("## Files")]
     assert "| `--overwrite`" not in options, "docs/cli.md lists --overwrite as a global option"
     for name in ("sweep", "montecarlo"):
-        assert all("--overwrite" not in a.option_strings for a in COMMANDS[name]._actions)
+        assert all("--overwrite" not in a.option_strings or a.help == argparse.SUPPRESS
+                   for a in COMMANDS[name]._actions)
         assert "--overwrite" not in _section(text, name).split("```")[1], (
             f"docs/cli.md shows --overwrite in mitsar {name}'s usage")

@@ -91,8 +91,20 @@ def _folder_command(commands: Any, common: argparse.ArgumentParser, name: str, f
     sub.add_argument("-o", "--output", required=True, metavar="DIR", help="output folder")
     if overwrite:
         sub.add_argument("--overwrite", action="store_true", help="replace existing outputs")
+    else:  # a resumable campaign: say what to do instead of argparse's "unrecognized"
+        sub.add_argument("--overwrite", nargs=0, action=_NoOverwrite, help=argparse.SUPPRESS)
     sub.set_defaults(func=func)
     return sub
+
+
+class _NoOverwrite(argparse.Action):
+    """``--overwrite`` on a command that resumes its output folder instead: a clear error."""
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace,
+                 values: Any, option_string: str | None = None) -> None:
+        parser.error("--overwrite does not apply: this command resumes an interrupted run from "
+                     "the record in its output folder (-o DIR) instead of replacing it; pass "
+                     "--restart to discard that record and start again, or choose another -o")
 
 
 def _file_command(commands: Any, common: argparse.ArgumentParser, name: str, func: Any,
