@@ -24,6 +24,7 @@ from mitsar.focus.bp_tiled import (
     PHASE_LIMIT,
     backproject_tiled,
     lane_layout,
+    nearest_range,
     row_step,
     shared_slots,
     sincos_turns,
@@ -194,8 +195,9 @@ def test_shared_lookups_need_finer_rows_than_bins():
                          -1)
     velocities = np.tile([0.5, 0.0, 0.0], (200, 1))
     centroid = np.zeros(200)
+    nearest = nearest_range(positions, TARGET, TARGET)
     for spacing, expected in ((0.003, 4), (0.006, 2), (0.015, 1)):
-        assert shared_slots(np.array([0.0, spacing, 0.0]), 32, frequency, RADAR, TARGET[None],
+        assert shared_slots(np.array([0.0, spacing, 0.0]), 32, frequency, RADAR, nearest,
                             16 * spacing, positions, velocities, centroid, 0.15,
                             False) == expected
     # along the track the window bounds the direction sine: 3 mm rows share by 16 in a 0.15
@@ -203,7 +205,7 @@ def test_shared_lookups_need_finer_rows_than_bins():
     along = np.array([0.003, 0.0, 0.0])
     for half_width, squint, expected in ((0.15, 0.0, 16), (0.3, 0.0, 8), (0.3, 0.4, 4)):
         for fractional in (False, True):
-            assert shared_slots(along, 32, frequency, RADAR, TARGET[None], 0.05, positions,
+            assert shared_slots(along, 32, frequency, RADAR, nearest, 0.05, positions,
                                 velocities, centroid + squint, half_width,
                                 fractional) == expected
 
@@ -293,3 +295,65 @@ def test_pixel_chunks_make_the_profile_coefficients_once(raw, monkeypatch):
     parts = mitsar.focus(raw, "bpa", grid, backend="numpy", pixel_chunk=200)["image"].values
     assert len(tables) == 1   # the chunked call only
     np.testing.assert_array_equal(parts, one)
+
+
+def test_chunks_given_the_grids_nearest_range_share_alike(raw):
+    """shared_slots' small terms use the nearest range: a part of a grid far from the track
+    alone would share more pixels per lookup than the whole grid (sixteen against eight in a
+    0.23 half-width window, pixels from 0 to 4.3 m high), so focus() hands every pixel chunk
+    the whole grid's nearest range: the far part then shares as in the whole, bit for bit."""
+    from mitsar.model.geometry.bounds import bounding_box
+
+    frequency, profile = range_spectrum(raw["raw"].values, RADAR, upsample=8)
+    positions = raw["platform_position"].values
+    velocities = raw["platform_velocity"].values
+    centroid = raw["boresight"].values @ np.array([1.0, 0, 0])
+    x = 15 + (np.arange(64) - 32) * 0.003
+
+    def rows(heights):
+        return np.array([[xx, 8.0, z] for z in heights for xx in x])
+
+    far, whole = rows(np.linspace(0.0, 1.0, 3)), rows([0.0, 0.5, 1.0, 4.2, 4.3])
+    arguments = (profile, frequency, RADAR)
+    common = (positions, velocities, centroid, 0.23, window_coefficients("rect"))
+    together, _, info = backproject_tiled(*arguments, whole, *common, row_length=64)
+    alone, _, alone_info = backproject_tiled(*arguments, far, *common, row_length=64)
+    assert (alone_info["shared_lookup"], info["shared_lookup"]) == (16, 8)
+    nearest = nearest_range(positions, *bounding_box(whole))
+    chunk, _, chunk_info = backproject_tiled(*arguments, far, *common, row_length=64,
+                                             nearest=nearest)
+    assert chunk_info["shared_lookup"] == 8
+    np.testing.assert_array_equal(chunk, together[:len(far)])
+    assert _error_db(alone, together[:len(far)]) <= TOLERANCE_DB   # both within budget
+
+
+def test_shared_lookups_clear_the_slots_a_hard_cut_leaves_out(raw):
+    """A window as wide as the beam ends in a hard cut (no edge fractions); centred 0.2 off
+    the centroid it cuts through the echo's aperture, so within a group some slots are in
+    and some out for many sweeps: the shared packet must count only for the slots inside (the
+    masked gather's zeros no longer stand for the weight). Against the kernel's one packet per
+    pixel at -80 dB (measured -136 dB; clearing nothing gives about -21 dB), the same sweeps
+    counted. (Both are only -45 dB from the float64 sum here: at a hard cut a sweep whose
+    offset is within float32 rounding of h falls on either side; edge fractions, used below
+    the whole beam, have no such jump.)"""
+    from mitsar.focus.backprojection import fractional_edges
+
+    frequency, profile = range_spectrum(raw["raw"].values, RADAR, upsample=8)
+    positions = raw["platform_position"].values
+    velocities = raw["platform_velocity"].values
+    centroid = raw["boresight"].values @ np.array([1.0, 0, 0])
+    row, across = np.arange(-0.096, 0.096, 0.003), np.arange(-0.02, 0.02, 0.005)
+    a, b = np.meshgrid(row, across)
+    pixels = TARGET + np.stack([a, b, 0 * a], -1).reshape(-1, 3)
+    arguments = (profile, frequency, RADAR, pixels, positions, velocities, centroid + 0.2, 0.2,
+                 window_coefficients("rect"))
+    assert not fractional_edges(RADAR, 0.2)
+    single, single_total, _ = backproject_tiled(*arguments, row_length=len(row),
+                                                share_lookups=False)
+    shared, total, info = backproject_tiled(*arguments, row_length=len(row))
+    assert info["shared_lookup"] > 1
+    assert 0 < total.min() and total.max() < len(positions)   # the cut lies inside
+    assert _error_db(shared, single) <= TOLERANCE_DB
+    np.testing.assert_array_equal(total, single_total)
+    _, reference_total = backproject_numpy(*arguments)
+    assert np.abs(total - reference_total).max() <= 2     # a sweep at each end at most

@@ -41,15 +41,18 @@ Meta 2007 §II-B; interpolation of the zero-padded range profile,
    the phase come from polynomials of the half angle (:func:`sincos_half_turns`,
    error 1.2e-6).
 
-5. on a regular row, S neighbouring slots (:data:`SHARED_SLOTS`, :func:`shared_slots`) share
-   one packet: that of the bin ``b`` below the lookup position of their middle, each pixel
-   evaluating the cubic at its own ``t = position - b``. Where the positions of the S slots
-   span at most one bin, ``t`` stays in [-1/2, 3/2), on which the Lagrange remainder is at
-   most 5/3 of the one on [0, 1) (:func:`mitsar.focus.interpolation.error_bound` with
-   ``shared``: -62.9 dB instead of -65.1 dB at 8x, band edge); a quarter of the packet loads
-   at S = 4, which dominate the kernel on the CPU (1000 x 512^2: kernel 283 -> 186 ms).
-   Cubic only (a shared linear lookup would triple its bound), and only where every lookup
-   is known to lie inside the profile (no bounds test).
+5. on a regular row without an aspect window, S neighbouring slots (:data:`SHARED_SLOTS`,
+   :func:`shared_slots`) share one packet: that of the bin ``b`` below the lookup position
+   of their middle, each pixel evaluating the cubic at its own ``t = position - b``. Where
+   every slot's position is within half a bin of the middle's (``(S - 1) sigma <= 1``),
+   ``t`` stays in [-1/2, 3/2), on which the Lagrange remainder is at most 5/3 of the one on
+   [0, 1) (:func:`mitsar.focus.interpolation.error_bound` with ``shared``: -60.6 dB instead
+   of -65.1 dB at 8x for a component at the band edge; measured on the benchmark image
+   -71.1 dB against an interpolation-free float64 sum, as without sharing); the slots a
+   window leaves out are cleared (the group's packet is not theirs). At S = 16 (rows along
+   the track at 1000 x 512^2) a sixteenth of the packet loads, which dominated the kernel
+   on the CPU: kernel 283 -> 155-175 ms. Cubic only (a shared linear lookup would triple its
+   bound), and only where every lookup is known to lie inside the profile (no bounds test).
 
 A lane is used only where the phase error of (1), ``4 pi f_max / c * h^4 / (2 r^3)``, stays
 below :data:`PHASE_LIMIT`; the lane size G is the largest of :data:`LANE_SIZES` for which all
@@ -92,7 +95,8 @@ from mitsar.model.geometry.bounds import bounding_box
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
 
 __all__ = ["LANE_SIZES", "SHARED_SLOTS", "SWEEP_PARTS", "PHASE_LIMIT", "backproject_tiled",
-           "lane_layout", "row_step", "shared_slots", "sincos_half_turns", "sincos_turns"]
+           "lane_layout", "nearest_range", "row_step", "shared_slots", "sincos_half_turns",
+           "sincos_turns"]
 
 LANE_SIZES = (32, 16, 8, 4)
 """Pixels per lane tried, largest first (more pixels share a lane's float64 work)."""
@@ -248,12 +252,12 @@ SHARED_SLOTS = (16, 8, 4, 2)
 """Pixels per shared lookup tried, largest first (module step 5)."""
 
 
-def shared_slots(step: NDArray, size: int, frequency: NDArray, radar: Radar, centres: NDArray,
+def shared_slots(step: NDArray, size: int, frequency: NDArray, radar: Radar, nearest: float,
                  reach: float, positions: NDArray, velocities: NDArray,
                  centroid_sine: NDArray, half_width: float, fractional: bool) -> int:
     """Pixels of a regular row that may share one lookup (module step 5): the largest S of
-    :data:`SHARED_SLOTS` dividing the lane size whose lookup positions span at most one bin,
-    ``(S - 1) sigma <= 1``, else 1.
+    :data:`SHARED_SLOTS` dividing the lane size with ``(S - 1) sigma <= 1`` (every slot's
+    lookup position within half a bin of the group middle's), else 1.
 
     ``sigma`` bounds the change of the lookup position from one slot to the next [bins] in a
     group of S slots of which one at least is in the window. The range changes along the row
@@ -262,23 +266,24 @@ def shared_slots(step: NDArray, size: int, frequency: NDArray, radar: Radar, cen
     the window has ``|v^.u - u_c| <= h'``, ``h' = h`` plus, with edge fractions, half the
     largest step of window offset from one sweep to the next (``|v| T / R``, floored as
     :func:`mitsar.focus.backprojection.inverse_window_step` floors it), and its group's
-    other slots are within ``(S - 1) |A| / R`` of its direction sine (``R``: the nearest range
-    from the slots, within ``reach`` of their lane centres, to the track); so ``c = max_k
+    other slots are within ``(S - 1) |A| / R`` of its direction sine (``R = nearest - 2
+    reach``: ``nearest`` [m] bounds the range from the pixels to the track below, and every
+    slot, padding past a row's end included, lies within ``reach`` of its lane centre, itself
+    within ``reach`` of a pixel); so ``c = max_k
     min(1, |a_k| (|u_c,k| + h' + (S - 1) |A| / R) + sqrt(1 - a_k^2))``. The direction sine
     changes by at most ``2 |A| / R`` per slot, which moves the Doppler term. Hence ``sigma =
     |A| (b c + 2 d / R)`` with ``b`` bins per metre of range and ``d`` the largest Doppler
     shift in bins (``f_c |v| / K`` in range), and 1 % of margin for the float32 polynomials of
-    eqs. (1)-(2). Along the track ``c`` is about the window's largest direction sine, across
-    it 1. ``c`` depends on the track and the window, not on which pixels are focused together
-    (a volume focused in slabs shares as the whole; ``R`` enters the small terms only).
+    eqs. (1)-(2). Along the track ``c`` is about the window's largest direction sine (0.16
+    for the paper radar's whole beam), across it 1. ``c`` depends on the track and the window
+    only, ``R`` (in the small terms) on ``nearest``: a focus by pixel chunks passes the whole
+    grid's, so that every chunk shares alike.
     """
     df = float(frequency[1] - frequency[0])
     per_metre = 2 * radar.chirp_rate / (SPEED_OF_LIGHT * df)
     speed = np.linalg.norm(velocities, axis=-1)
     doppler = 2 * radar.carrier_frequency / (SPEED_OF_LIGHT * df) * float(speed.max(initial=0))
-    low, high = bounding_box(centres)
-    low, high = low - reach, high + reach
-    nearest = float(np.linalg.norm(positions - np.clip(positions, low, high), axis=-1).min())
+    nearest = nearest - 2 * reach   # R: any slot's range
     length = float(np.linalg.norm(step))
     if nearest <= 0 or length == 0 or not (speed > 0).all():
         return 1
@@ -300,6 +305,11 @@ def shared_slots(step: NDArray, size: int, frequency: NDArray, radar: Radar, cen
     return 1
 
 
+def nearest_range(positions: NDArray, low: NDArray, high: NDArray) -> float:
+    """The smallest distance [m] from the antenna ``positions`` (S, 3) to the box [low, high]."""
+    return float(np.linalg.norm(positions - np.clip(positions, low, high), axis=-1).min())
+
+
 def backproject_tiled(profile: NDArray, frequency: NDArray, radar: Radar, pixels: NDArray,
                       positions: NDArray, velocities: NDArray, centroid_sine: NDArray,
                       half_width: float, window: NDArray, motion_correction: bool = True,
@@ -308,8 +318,8 @@ def backproject_tiled(profile: NDArray, frequency: NDArray, radar: Radar, pixels
                       row_length: int | None = None,
                       interpolation: str = DEFAULT_INTERPOLATION,
                       while_running: Callable[[], Any] | None = None,
-                      share_lookups: bool = True, packets: Any = None
-                      ) -> tuple[NDArray, NDArray, dict]:
+                      share_lookups: bool = True, packets: Any = None,
+                      nearest: float | None = None) -> tuple[NDArray, NDArray, dict]:
     """Back-projection by lanes of neighbouring pixels (module docstring).
 
     Parameters as :func:`mitsar.focus.backprojection.backproject_drjit` (monostatic only),
@@ -321,7 +331,9 @@ def backproject_tiled(profile: NDArray, frequency: NDArray, radar: Radar, pixels
     step 5, where :func:`shared_slots` allows it; False: one lookup per pixel, the sum of
     :func:`mitsar.focus.backprojection.backproject_numpy` to float32 rounding); ``packets``:
     the profile's :func:`mitsar.focus.interpolation.jit_packets` if already made (an earlier
-    pixel chunk's).
+    pixel chunk's); ``nearest``: a lower bound [m] of the pixels' range to the track for
+    :func:`shared_slots` (the whole grid's, so that its chunks share alike; default and at
+    most: that of these pixels' box).
 
     Returns
     -------
@@ -382,7 +394,9 @@ def backproject_tiled(profile: NDArray, frequency: NDArray, radar: Radar, pixels
     shared = 1
     if share_lookups and step is not None and frames is None and not checked \
             and interpolation == "cubic":
-        shared = shared_slots(step, groups.shape[1], frequency, radar, centre[good], reach,
+        own = nearest_range(positions, *bounding_box(pixels))
+        shared = shared_slots(step, groups.shape[1], frequency, radar,
+                              own if nearest is None else min(nearest, own), reach,
                               positions, velocities, centroid_sine, half_width,
                               fractional_edges(radar, half_width))
     sums, totals, done = _run_lanes(profile, frequency, radar, centre[good][order],
@@ -571,6 +585,13 @@ def lane_loop(lane: dict, first: Any, end: Any, sweep_arrays: list, pairs: Any,
                 step_0 = inverse_window_step(across_sine, spacing * inverse32, dr.maximum)
                 step_1 = step_0 * dr.fma(sine_centre + sine_centre, sine_1 / dr.maximum(
                     across_sine, SMALLEST_WINDOW_STEP), alpha)
+
+                def slot_step(m: float) -> Any:
+                    """The first-order inverse step of slot m, kept above half the centre's:
+                    near a line of sight along the track (1 - s^2 -> 0) the first order can
+                    turn negative or infinite, which would give edge fraction 1 outside the
+                    window; the true 1 / delta is large there (a hard cut)."""
+                    return dr.maximum(dr.fma(m, step_1, step_0), 0.5 * step_0)
         row = Int32(k * bins)
         start = row + base   # flat index of the lane centre's bin
         start_row[0] = row
@@ -579,7 +600,7 @@ def lane_loop(lane: dict, first: Any, end: Any, sweep_arrays: list, pairs: Any,
             for first_slot in range(0, len(pixels), shared):
                 out += _accumulate_shared([pixels[g][0] for g in range(
                     first_slot, first_slot + shared)], position, cycles, window_offset,
-                    (step_0, step_1) if fractional else None, start,
+                    slot_step if fractional else None, start,
                     accumulators[3 * first_slot:])
             return (k + 1, *out)
         for g, ((m, offset_xyz, dd), frame) in enumerate(zip(pixels, frames, strict=True)):
@@ -588,7 +609,7 @@ def lane_loop(lane: dict, first: Any, end: Any, sweep_arrays: list, pairs: Any,
                 phase = _horner(cycles, m)
                 offset = _horner(window_offset, m)
                 out += _accumulate(shift, frac, phase, offset,
-                                   dr.fma(m, step_1, step_0) if fractional else None,
+                                   slot_step(m) if fractional else None,
                                    start, accumulators[3 * g:])
                 continue
             if offset_xyz is None:
@@ -648,13 +669,14 @@ def lane_loop(lane: dict, first: Any, end: Any, sweep_arrays: list, pairs: Any,
         return _derotate(v_real, v_imag, phase, offset, active, fraction, sums)
 
     def _accumulate_shared(slots: list, position: tuple, cycles: tuple, window_offset: tuple,
-                           steps: tuple | None, start: Any, sums: tuple) -> list:
+                           steps: Callable[[float], Any] | None, start: Any,
+                           sums: tuple) -> list:
         """Step 5: the pixels at row offsets ``slots`` read one packet, that of the bin below
         their middle's lookup position, each at its own ``t`` in [-1/2, 3/2) (the span of
         their positions is at most one bin, :func:`shared_slots`)."""
         base = dr.floor(_horner(position, 0.5 * (slots[0] + slots[-1])))
         windows = [_window(_horner(window_offset, m),
-                           None if steps is None else dr.fma(m, steps[1], steps[0]))
+                           None if steps is None else steps(m))
                    for m in slots]
         any_active = windows[0][0]
         for active, _ in windows[1:]:

@@ -43,7 +43,7 @@ from mitsar.focus.aperture import (
 )
 from mitsar.focus.backprojection import backproject_drjit, backproject_numpy, jit_array
 from mitsar.focus.bp_setup import aperture_weights, beat_band, normalise, prepare
-from mitsar.focus.bp_tiled import backproject_tiled
+from mitsar.focus.bp_tiled import backproject_tiled, nearest_range
 from mitsar.focus.grid import track_frame
 from mitsar.focus.interpolation import (
     DEFAULT_INTERPOLATION,
@@ -52,6 +52,7 @@ from mitsar.focus.interpolation import (
     jit_packets,
 )
 from mitsar.focus.reuse import reuse
+from mitsar.model.geometry.bounds import bounding_box
 from mitsar.model.radar import Radar
 
 __all__ = ["crop_to_pixels", "curved_sweep_range", "focus_bpa"]
@@ -161,9 +162,11 @@ def focus_bpa(raw: xr.Dataset, pixels: NDArray, *, half_width: float, window: st
         # (1.6-1.9x the groups on an H100, docs/gpu.md §6), and a bistatic channel needs it.
         if bp.receivers is None and backend_name() != "cuda":
             # the aperture weights (host work) while the last chunk's kernel runs
+            # the whole grid's nearest range: every chunk shares lookups alike
+            nearest = nearest_range(positions, *bounding_box(pixels)) if len(pixels) else None
             tiled = [backproject_tiled(*arguments, pixels[c], *common,
                                        sweep_range=_rows(ranges, c), aspect=_rows(aspect, c),
-                                       row_length=row_length, **how,
+                                       row_length=row_length, nearest=nearest, **how,
                                        while_running=None if c.stop < len(pixels) else
                                        lambda: aperture_weights(bp, raw, pixels, half_width,
                                                                 coordinates))
