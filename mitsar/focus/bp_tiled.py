@@ -678,14 +678,14 @@ def lane_loop(lane: dict, first: Any, end: Any, sweep_arrays: list, pairs: Any,
         windows = [_window(_horner(window_offset, m),
                            None if steps is None else steps(m))
                    for m in slots]
-        any_active = windows[0][0]
-        for active, _ in windows[1:]:
-            any_active = any_active | active  # not |=: that would change slot 0's mask
-        taps = packet(pairs, start + Int32(base), any_active, constants["interpolation"])
+        # unmasked: the base bin lies inside the profile (every lookup does, step 5), and a
+        # group no slot of which is in the window reads a packet it does not use
+        taps = packet(pairs, start + Int32(base), True, constants["interpolation"])
+        local = (position[0] - base, *position[1:])   # t = position - b in one Horner
         out = []
         for g, (m, (active, fraction)) in enumerate(zip(slots, windows, strict=True)):
             offset = _horner(window_offset, m)
-            v_real, v_imag = evaluate(taps, _horner(position, m) - base)
+            v_real, v_imag = evaluate(taps, _horner(local, m))
             if fraction is None and rectangular:  # the packet is the group's: clear it
                 v_real, v_imag = dr.select(active, v_real, 0.0), dr.select(active, v_imag, 0.0)
             out += _derotate(v_real, v_imag, _horner(cycles, m), offset, active, fraction,
