@@ -305,6 +305,42 @@ def shared_slots(step: NDArray, size: int, frequency: NDArray, radar: Radar, nea
     return 1
 
 
+def _column_order(pixels: NDArray, row_length: int | None, step: NDArray | None,
+                  aspect: Any, share_lookups: bool, interpolation: str, frequency: NDArray,
+                  radar: Radar, positions: NDArray, velocities: NDArray,
+                  centroid_sine: NDArray, half_width: float, nearest: float | None
+                  ) -> NDArray[np.int64] | None:
+    """The pixel order that lays the lanes along the grid's columns, or None (rows).
+
+    Only for a grid regular along both dims (a row step and a column step) with lookups that
+    may be shared (cubic, no aspect window), and only where :func:`shared_slots` lets more
+    pixels of a column than of a row share one, for lanes of ``LANE_SIZES[0]``: a row across
+    the track moves the lookup by up to a pixel's size in range per pixel, a row along it by
+    the pixel's size times the beam's direction sine. Chunks of whole rows keep the lanes
+    where they are on the whole grid when they hold a multiple of ``LANE_SIZES[0]`` rows
+    (:func:`mitsar.focus.bpa.focus_bpa` cuts them so).
+    """
+    if (step is None or aspect is not None or not share_lookups or interpolation != "cubic"
+            or len(pixels) < 2 * row_length):
+        return None
+    rows = len(pixels) // row_length
+    order = np.arange(len(pixels)).reshape(rows, row_length).T.ravel()
+    column = row_step(pixels[order], rows)
+    size = LANE_SIZES[0]
+    if column is None or rows < size:
+        return None
+    own = nearest_range(positions, *bounding_box(pixels))
+    nearest = own if nearest is None else min(nearest, own)
+    fractional = fractional_edges(radar, half_width)
+
+    def slots(along: NDArray) -> int:
+        return shared_slots(along, size, frequency, radar, nearest,
+                            float(np.linalg.norm(along)) * (size - 1) / 2, positions,
+                            velocities, centroid_sine, half_width, fractional)
+
+    return order if slots(column) > slots(step) else None
+
+
 def nearest_range(positions: NDArray, low: NDArray, high: NDArray) -> float:
     """The smallest distance [m] from the antenna ``positions`` (S, 3) to the box [low, high]."""
     return float(np.linalg.norm(positions - np.clip(positions, low, high), axis=-1).min())
@@ -319,7 +355,8 @@ def backproject_tiled(profile: NDArray, frequency: NDArray, radar: Radar, pixels
                       interpolation: str = DEFAULT_INTERPOLATION,
                       while_running: Callable[[], Any] | None = None,
                       share_lookups: bool = True, packets: Any = None,
-                      nearest: float | None = None) -> tuple[NDArray, NDArray, dict]:
+                      nearest: float | None = None, columns: bool = True
+                      ) -> tuple[NDArray, NDArray, dict]:
     """Back-projection by lanes of neighbouring pixels (module docstring).
 
     Parameters as :func:`mitsar.focus.backprojection.backproject_drjit` (monostatic only),
@@ -333,7 +370,9 @@ def backproject_tiled(profile: NDArray, frequency: NDArray, radar: Radar, pixels
     the profile's :func:`mitsar.focus.interpolation.jit_packets` if already made (an earlier
     pixel chunk's); ``nearest``: a lower bound [m] of the pixels' range to the track for
     :func:`shared_slots` (the whole grid's, so that its chunks share alike; default and at
-    most: that of these pixels' box).
+    most: that of these pixels' box); ``columns``: on a grid regular along both dims, lay
+    the lanes along its columns where more pixels then share a lookup (:func:`_column_order`;
+    e.g. a ``SlantGrid``, whose rows run across the track).
 
     Returns
     -------
@@ -342,12 +381,13 @@ def backproject_tiled(profile: NDArray, frequency: NDArray, radar: Radar, pixels
     info : dict
         ``lane_pixels`` (G used, 0 if none), ``exact_pixels`` (pixels sent to the exact
         kernel), ``row_step`` (1 when the lanes are regular row segments),
-        ``shared_lookup`` (pixels per lookup, step 5) and ``predicted_phase_error`` [rad], the
+        ``shared_lookup`` (pixels per lookup, step 5), ``lanes_along`` ("rows" or "columns")
+        and ``predicted_phase_error`` [rad], the
         largest of eq. (1) over the lanes used.
     """
     count = len(pixels)
     info = {"lane_pixels": 0, "exact_pixels": count, "row_step": 0, "shared_lookup": 1,
-            "predicted_phase_error": 0.0}
+            "lanes_along": "rows", "predicted_phase_error": 0.0}
     if count == 0:
         info["while_running"] = while_running() if while_running else None
         return np.zeros(0, dtype=complex), np.zeros(0), info
@@ -360,6 +400,18 @@ def backproject_tiled(profile: NDArray, frequency: NDArray, radar: Radar, pixels
     if row_length is not None and row_length < min(LANE_SIZES):
         row_length = None  # rows too short to fill a lane: groups of consecutive points
     step = row_step(pixels, row_length)
+    order = None if not columns else _column_order(
+        pixels, row_length, step, aspect, share_lookups, interpolation, frequency, radar,
+        positions, velocities, centroid_sine, half_width, nearest)
+    if order is not None:  # the lanes along the columns share more: the same sum, transposed
+        values, totals, info = backproject_tiled(
+            profile, frequency, radar, pixels[order], positions, velocities, centroid_sine,
+            half_width, window, motion_correction, (first[order], end[order]), None,
+            count // row_length, interpolation, while_running, share_lookups, packets,
+            nearest, columns=False)
+        weighted_sum, total = np.empty_like(values), np.empty_like(totals)
+        weighted_sum[order], total[order] = values, totals
+        return weighted_sum, total, {**info, "lanes_along": "columns"}
     sizes = [s for s in LANE_SIZES if row_length is None or s <= row_length] or [LANE_SIZES[-1]]
     for size in sizes:
         groups, centre, offsets, error = _lanes(pixels, row_length, size, step, positions,
@@ -419,7 +471,7 @@ def backproject_tiled(profile: NDArray, frequency: NDArray, radar: Radar, pixels
         weighted_sum[rest], total[rest] = values, totals_rest
     return weighted_sum, total, {
         "lane_pixels": int(groups.shape[1]), "exact_pixels": int(len(rest)),
-        "row_step": int(step is not None), "shared_lookup": shared,
+        "row_step": int(step is not None), "shared_lookup": shared, "lanes_along": "rows",
         "predicted_phase_error": float(top_wavenumber * error[good].max()),
         "while_running": done}
 

@@ -43,7 +43,7 @@ from mitsar.focus.aperture import (
 )
 from mitsar.focus.backprojection import backproject_drjit, backproject_numpy, jit_array
 from mitsar.focus.bp_setup import aperture_weights, beat_band, normalise, prepare
-from mitsar.focus.bp_tiled import backproject_tiled, nearest_range
+from mitsar.focus.bp_tiled import LANE_SIZES, backproject_tiled, nearest_range
 from mitsar.focus.grid import track_frame
 from mitsar.focus.interpolation import (
     DEFAULT_INTERPOLATION,
@@ -123,8 +123,11 @@ def focus_bpa(raw: xr.Dataset, pixels: NDArray, *, half_width: float, window: st
     # 3. back-projection in pixel chunks
     origin, direction, _ = track_frame(raw)
     coordinates = track_coordinates(pixels, origin, direction)  # once for ranges and weights
-    if row_length and backend != "numpy":  # whole rows per chunk: lanes follow the rows
-        pixel_chunk = max(row_length, pixel_chunk // row_length * row_length)
+    if row_length and backend != "numpy":  # whole rows per chunk: lanes follow the rows,
+        # or the columns in blocks of LANE_SIZES[0] rows (bp_tiled._column_order)
+        block = row_length * LANE_SIZES[0]
+        pixel_chunk = (max(block, pixel_chunk // block * block) if pixel_chunk >= block
+                       else max(row_length, pixel_chunk // row_length * row_length))
     chunks = tqdm([slice(start, start + pixel_chunk)
                    for start in range(0, len(pixels), pixel_chunk)],
                   disable=not progress, desc="back-projection", unit="chunk")
