@@ -29,15 +29,15 @@ accuracy is measured against the exact float64 sum ``sum_p sum_k S[p, k] exp(+j 
 c)`` (no interpolation at all) on the same subset of pixels.
 
 Measured on 27 November 2026 after the shared cubic lookups (mitsar.focus.bp_tiled step 5:
-neighbouring pixels of a row read one packet), quiet 2-CPU machine (load 1.1-1.9):
-1000 x 512^2: mitsar 0.228 s / 0.42 CPU-s, -71.1 dB; FastSAR grid 0.456 s / 0.89 CPU-s,
--85.3 dB; points 3.17 s, -44.3 dB: **2.01x (wall), 2.12x per CPU-s**; three other runs the
-same hour 1.92x, 1.94x and 1.96x (wall), 2.03-2.12x per CPU-s: at 512^2 the 2x is met per
-CPU-second and at the edge in wall time (mitsar's NumPy set-up, ~45 ms, runs on one core).
-4096 x 1024^2: mitsar 1.14 s / 2.07 CPU-s, -65.8 dB; FastSAR grid 7.14 s / 14.2 CPU-s,
--84.0 dB: **6.24x (wall), 6.83x per CPU-s**. Before the shared lookups (one 32-byte packet
-per pixel and sweep): 1.20-1.23x and 3.62x (wall); docs/focusing.md, "Exact BPA by pixel
-groups", has the history.
+neighbouring pixels of a row or column read one packet), quiet 2-CPU machine (load 1.3-1.7),
+best of 3: 1000 x 512^2: mitsar 0.203-0.216 s / 0.39-0.41 CPU-s, -71.1 dB; FastSAR grid
+0.426-0.497 s / 0.84-0.92 CPU-s, -85.3 dB; points 3.11 s, -44.3 dB: **2.10x, 2.02x, 2.02x
+and 2.35x (wall)** in four runs, 2.11-2.35x per CPU-s. 4096 x 1024^2: mitsar 1.02 s / 1.86
+CPU-s, -65.8 dB; FastSAR grid 6.76 s / 13.4 CPU-s, -84.0 dB: **6.64x (wall), 7.22x per
+CPU-s**. Before the shared lookups (one 32-byte packet per pixel and sweep): 1.20-1.23x and
+3.62x (wall); docs/focusing.md, "Exact BPA by pixel groups", has the history. mitsar's
+NumPy set-up (~35 ms) runs on one core: on more cores the 512^2 ratio would fall (not
+measured).
 
 Counts: pixel-pulses = pixels x sweeps for every tool (mitsar sums, per pixel, only the
 sweeps whose line of sight lies in the beam; FastSAR every sweep). Wall time is what counts;
