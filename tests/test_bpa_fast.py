@@ -387,3 +387,29 @@ def test_rows_across_the_track_take_their_lanes_along_the_columns(raw):
     whole = mitsar.focus(raw, "bpa", grid)["image"].values
     chunked = mitsar.focus(raw, "bpa", grid, pixel_chunk=64 * 32)["image"].values
     np.testing.assert_array_equal(chunked, whole)
+
+
+def test_a_volume_takes_column_lanes_slab_by_slab_as_its_slices_do():
+    """A track along y makes a VolumeGrid's rows (x fastest) run across it: focus() lays the
+    lanes along each z slice's columns, as for the PlaneGrid of one slice, whose image the
+    volume's slice then equals bit for bit (the property of tests/test_volume.py, with the
+    track the other way); cut in chunks of single slabs or 32-row blocks it is the same."""
+    from mitsar.focus import bp_tiled as tiled_module
+
+    trajectory = mitsar.Trajectory.linear([1.4, 14.6, 4.5], [0.0, 0.5, 0.0], 1.6)
+    target = np.array([-5.2, 15.0, 0.0])
+    raw = mitsar.simulate_point_targets(RADAR, trajectory, LOOK, [mitsar.PointTarget(target)],
+                                        normalized=True)
+    x, y, z = [-5.296, -5.105, 0.003], [14.952, 15.047, 0.003], [-0.01, 0.011, 0.01]
+    grid = mitsar.grid.VolumeGrid(x=x, y=y, z=z)
+    pixels = grid.resolve(raw, RADAR, 0.1)["position"]
+    assert tiled_module.column_order(pixels.reshape(-1, 3), pixels.shape[2], pixels.shape[1],
+                                     raw["platform_velocity"].values,
+                                     np.zeros(raw.sizes["sweep"]), 0.15) is not None
+    volume = mitsar.focus(raw, "bpa", grid)["image"].values
+    plane = mitsar.grid.PlaneGrid(origin=[0, 0, float(grid.axes()[2][1])], axis_u=[1, 0, 0],
+                                  axis_v=[0, 1, 0], u=x, v=y)
+    np.testing.assert_array_equal(volume[1], mitsar.focus(raw, "bpa", plane)["image"].values)
+    for chunk in (64 * 32, 64 * 32 * 2, 64 * 32 * 3):
+        np.testing.assert_array_equal(
+            mitsar.focus(raw, "bpa", grid, pixel_chunk=chunk)["image"].values, volume)

@@ -95,8 +95,8 @@ from mitsar.model.geometry.bounds import bounding_box
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
 
 __all__ = ["LANE_SIZES", "SHARED_SLOTS", "SWEEP_PARTS", "PHASE_LIMIT", "backproject_tiled",
-           "lane_layout", "nearest_range", "row_step", "shared_slots", "sincos_half_turns",
-           "sincos_turns"]
+           "column_order", "lane_layout", "nearest_range", "row_step", "shared_slots",
+           "sincos_half_turns", "sincos_turns", "slab_transpose"]
 
 LANE_SIZES = (32, 16, 8, 4)
 """Pixels per lane tried, largest first (more pixels share a lane's float64 work)."""
@@ -305,40 +305,46 @@ def shared_slots(step: NDArray, size: int, frequency: NDArray, radar: Radar, nea
     return 1
 
 
-def _column_order(pixels: NDArray, row_length: int | None, step: NDArray | None,
-                  aspect: Any, share_lookups: bool, interpolation: str, frequency: NDArray,
-                  radar: Radar, positions: NDArray, velocities: NDArray,
-                  centroid_sine: NDArray, half_width: float, nearest: float | None
-                  ) -> NDArray[np.int64] | None:
-    """The pixel order that lays the lanes along the grid's columns, or None (rows).
+def column_order(pixels: NDArray, row_length: int | None, slab_rows: int | None,
+                 velocities: NDArray, centroid_sine: NDArray, half_width: float
+                 ) -> NDArray[np.int64] | None:
+    """The pixel order that lays the lanes along the columns of each slab, or None (rows).
 
-    Only for a grid regular along both dims (a row step and a column step) with lookups that
-    may be shared (cubic, no aspect window), and only where :func:`shared_slots` lets more
-    pixels of a column than of a row share one, for lanes of ``LANE_SIZES[0]``: a row across
-    the track moves the lookup by up to a pixel's size in range per pixel, a row along it by
-    the pixel's size times the beam's direction sine. Chunks of whole rows keep the lanes
-    where they are on the whole grid when they hold a multiple of ``LANE_SIZES[0]`` rows
-    (:func:`mitsar.focus.bpa.focus_bpa` cuts them so).
+    ``pixels`` in row-major order, rows of ``row_length``, ``slab_rows`` rows per slab (a
+    volume's z slices; None: one slab). Columns only where both the rows and the columns of
+    every slab are regular and the columns move the lookup less per pixel: ``|A| c(A)``
+    smaller than for the row step by a quarter at least, ``c`` the bound of ``|Â.û|`` of
+    :func:`shared_slots` without its range-dependent spread (so the choice depends on the
+    grid's steps, the track and the window only: a volume and its slices, and every pixel
+    chunk, choose alike). A row across the track moves the lookup by up to a pixel's size in
+    range per pixel, a column along it by that times the window's direction sine.
     """
-    if (step is None or aspect is not None or not share_lookups or interpolation != "cubic"
-            or len(pixels) < 2 * row_length):
+    if not row_length or row_length < 2 or len(pixels) % row_length:
         return None
     rows = len(pixels) // row_length
-    order = np.arange(len(pixels)).reshape(rows, row_length).T.ravel()
-    column = row_step(pixels[order], rows)
-    size = LANE_SIZES[0]
-    if column is None or rows < size:
+    slab_rows = slab_rows or rows
+    if rows % slab_rows or slab_rows < LANE_SIZES[0]:
         return None
-    own = nearest_range(positions, *bounding_box(pixels))
-    nearest = own if nearest is None else min(nearest, own)
-    fractional = fractional_edges(radar, half_width)
+    step = row_step(pixels, row_length)
+    order = slab_transpose(len(pixels), row_length, slab_rows)
+    column = row_step(pixels[order], slab_rows) if step is not None else None
+    speed = np.linalg.norm(velocities, axis=-1)
+    if column is None or not (speed > 0).all():
+        return None
 
-    def slots(along: NDArray) -> int:
-        return shared_slots(along, size, frequency, radar, nearest,
-                            float(np.linalg.norm(along)) * (size - 1) / 2, positions,
-                            velocities, centroid_sine, half_width, fractional)
+    def change(along: NDArray) -> float:  # |A| c(A), per metre of range per pixel
+        length = float(np.linalg.norm(along))
+        a = np.abs(velocities @ (along / length)) / speed
+        cosine = a * (np.abs(centroid_sine) + half_width) + np.sqrt(np.maximum(1 - a**2, 0.0))
+        return length * min(1.0, float(cosine.max()))
 
-    return order if slots(column) > slots(step) else None
+    return order if change(column) < 0.75 * change(step) else None
+
+
+def slab_transpose(count: int, row_length: int, slab_rows: int) -> NDArray[np.int64]:
+    """The row-major order of ``count`` pixels read column by column within each slab of
+    ``slab_rows`` rows of ``row_length``: slab by slab, each column's pixels consecutive."""
+    return (np.arange(count).reshape(-1, slab_rows, row_length).transpose(0, 2, 1).ravel())
 
 
 def nearest_range(positions: NDArray, low: NDArray, high: NDArray) -> float:
@@ -355,8 +361,8 @@ def backproject_tiled(profile: NDArray, frequency: NDArray, radar: Radar, pixels
                       interpolation: str = DEFAULT_INTERPOLATION,
                       while_running: Callable[[], Any] | None = None,
                       share_lookups: bool = True, packets: Any = None,
-                      nearest: float | None = None, columns: bool = True
-                      ) -> tuple[NDArray, NDArray, dict]:
+                      nearest: float | None = None, columns: bool | None = None,
+                      slab_rows: int | None = None) -> tuple[NDArray, NDArray, dict]:
     """Back-projection by lanes of neighbouring pixels (module docstring).
 
     Parameters as :func:`mitsar.focus.backprojection.backproject_drjit` (monostatic only),
@@ -370,9 +376,10 @@ def backproject_tiled(profile: NDArray, frequency: NDArray, radar: Radar, pixels
     the profile's :func:`mitsar.focus.interpolation.jit_packets` if already made (an earlier
     pixel chunk's); ``nearest``: a lower bound [m] of the pixels' range to the track for
     :func:`shared_slots` (the whole grid's, so that its chunks share alike; default and at
-    most: that of these pixels' box); ``columns``: on a grid regular along both dims, lay
-    the lanes along its columns where more pixels then share a lookup (:func:`_column_order`;
-    e.g. a ``SlantGrid``, whose rows run across the track).
+    most: that of these pixels' box); ``columns``: lay the lanes along the columns of each
+    slab of ``slab_rows`` rows (None: decide by :func:`column_order`; True: wherever the
+    columns are regular, as a focus decided for the whole grid; False: rows), e.g. on a
+    ``SlantGrid``, whose rows run across the track.
 
     Returns
     -------
@@ -400,15 +407,23 @@ def backproject_tiled(profile: NDArray, frequency: NDArray, radar: Radar, pixels
     if row_length is not None and row_length < min(LANE_SIZES):
         row_length = None  # rows too short to fill a lane: groups of consecutive points
     step = row_step(pixels, row_length)
-    order = None if not columns else _column_order(
-        pixels, row_length, step, aspect, share_lookups, interpolation, frequency, radar,
-        positions, velocities, centroid_sine, half_width, nearest)
-    if order is not None:  # the lanes along the columns share more: the same sum, transposed
+    if columns is None:   # decided here (a focus decides once for all its chunks)
+        columns = (aspect is None and share_lookups and interpolation == "cubic"
+                   and column_order(pixels, row_length, slab_rows, velocities, centroid_sine,
+                                    half_width) is not None)
+    order = None
+    if columns and aspect is None and row_length and count % row_length == 0:
+        slab_rows = slab_rows or count // row_length
+        if (count // row_length) % slab_rows == 0:
+            order = slab_transpose(count, row_length, slab_rows)
+            if row_step(pixels[order], slab_rows) is None:
+                order = None
+    if order is not None:  # the lanes along the columns: the same sum, transposed
         values, totals, info = backproject_tiled(
             profile, frequency, radar, pixels[order], positions, velocities, centroid_sine,
             half_width, window, motion_correction, (first[order], end[order]), None,
-            count // row_length, interpolation, while_running, share_lookups, packets,
-            nearest, columns=False)
+            slab_rows or count // row_length, interpolation, while_running, share_lookups,
+            packets, nearest, columns=False)
         weighted_sum, total = np.empty_like(values), np.empty_like(totals)
         weighted_sum[order], total[order] = values, totals
         return weighted_sum, total, {**info, "lanes_along": "columns"}

@@ -43,7 +43,7 @@ from mitsar.focus.aperture import (
 )
 from mitsar.focus.backprojection import backproject_drjit, backproject_numpy, jit_array
 from mitsar.focus.bp_setup import aperture_weights, beat_band, normalise, prepare
-from mitsar.focus.bp_tiled import LANE_SIZES, backproject_tiled, nearest_range
+from mitsar.focus.bp_tiled import LANE_SIZES, backproject_tiled, column_order, nearest_range
 from mitsar.focus.grid import track_frame
 from mitsar.focus.interpolation import (
     DEFAULT_INTERPOLATION,
@@ -81,6 +81,7 @@ def focus_bpa(raw: xr.Dataset, pixels: NDArray, *, half_width: float, window: st
               range_window: str, remove_rvp: bool, motion_correction: bool, backend: str,
               range_upsample: int, pixel_chunk: int, band_selection: str | None = None,
               progress: bool = False, row_length: int | None = None,
+              slab_rows: int | None = None,
               range_interpolation: str = DEFAULT_INTERPOLATION
               ) -> tuple[NDArray, NDArray, dict]:
     """Back-project a raw product onto pixels (see the module docstring).
@@ -102,6 +103,9 @@ def focus_bpa(raw: xr.Dataset, pixels: NDArray, *, half_width: float, window: st
         Pixels per row when ``pixels`` are a grid in row-major order (its fastest dim): the
         Dr.Jit sum then runs by row segments (:func:`mitsar.focus.bp_tiled.backproject_tiled`,
         float64 once per segment and sweep); None: groups of consecutive points.
+    slab_rows : int, optional
+        Rows per slab (a volume's z slices; None: one slab), for lanes along the columns
+        (:func:`mitsar.focus.bp_tiled.column_order`).
     range_interpolation : {"cubic", "linear"}
         Interpolation of the range profiles (:mod:`mitsar.focus.interpolation`).
 
@@ -123,20 +127,23 @@ def focus_bpa(raw: xr.Dataset, pixels: NDArray, *, half_width: float, window: st
     # 3. back-projection in pixel chunks
     origin, direction, _ = track_frame(raw)
     coordinates = track_coordinates(pixels, origin, direction)  # once for ranges and weights
-    if row_length and backend != "numpy":  # whole rows per chunk: lanes follow the rows,
-        # or the columns in blocks of LANE_SIZES[0] rows (bp_tiled._column_order)
-        block = row_length * LANE_SIZES[0]
-        pixel_chunk = (max(block, pixel_chunk // block * block) if pixel_chunk >= block
-                       else max(row_length, pixel_chunk // row_length * row_length))
-    chunks = tqdm([slice(start, start + pixel_chunk)
-                   for start in range(0, len(pixels), pixel_chunk)],
+    # curved tracks, band narrower than the beam: the window on each pixel's aspect angle
+    # (aperture.aspect_frames); the whole beam keeps every sweep that sees the pixel
+    aspect = None
+    if bp.band_selection == "pixel" and not bp.straight and half_width < bp.beam_half_width:
+        aspect = reuse("aspect_frames", (pixels, positions, bp.velocities, bp.centroid),
+                       lambda: aspect_frames(pixels, positions, bp.velocities, bp.centroid))
+    tiled = backend != "numpy" and bp.receivers is None and backend_name() != "cuda"
+    # lanes along the grid's columns (bp_tiled.column_order), decided once for all chunks
+    columns = bool(tiled and aspect is None and range_interpolation == "cubic"
+                   and column_order(pixels, row_length, slab_rows, bp.velocities,
+                                    bp.centroid, bp.kernel_half_width) is not None)
+    chunks = tqdm(_chunks(len(pixels), pixel_chunk, row_length if backend != "numpy" else None,
+                          slab_rows if columns else None),
                   disable=not progress, desc="back-projection", unit="chunk")
     arguments = (profile, frequency, radar)
     common = (positions, bp.velocities, bp.centroid, bp.kernel_half_width, bp.kernel_window,
               motion_correction)
-    # curved tracks, band narrower than the beam: the window on each pixel's aspect angle
-    # (aperture.aspect_frames); the whole beam keeps every sweep that sees the pixel
-    aspect = None
     kernel = {"bp_kernel": "numpy" if backend == "numpy" else "exact"}
     weights = None
     how: dict = {"interpolation": range_interpolation}
@@ -144,9 +151,6 @@ def focus_bpa(raw: xr.Dataset, pixels: NDArray, *, half_width: float, window: st
         how["table" if backend == "numpy" else "packets"] = (
             coefficient_table(profile, range_interpolation) if backend == "numpy"
             else jit_packets(profile, range_interpolation, jit_array))
-    if bp.band_selection == "pixel" and not bp.straight and half_width < bp.beam_half_width:
-        aspect = reuse("aspect_frames", (pixels, positions, bp.velocities, bp.centroid),
-                       lambda: aspect_frames(pixels, positions, bp.velocities, bp.centroid))
     if backend == "numpy":
         results = [backproject_numpy(*arguments, pixels[c], *common, aspect=_rows(aspect, c),
                                      receivers=bp.receivers, **how)
@@ -163,13 +167,15 @@ def focus_bpa(raw: xr.Dataset, pixels: NDArray, *, half_width: float, window: st
                                                       bp.centroid, bp.kernel_half_width, aspect))
         # By pixel groups (bp_tiled) on the CPU; on a GPU the exact kernel is the faster one
         # (1.6-1.9x the groups on an H100, docs/gpu.md §6), and a bistatic channel needs it.
-        if bp.receivers is None and backend_name() != "cuda":
+        if tiled:
             # the aperture weights (host work) while the last chunk's kernel runs
             # the whole grid's nearest range: every chunk shares lookups alike
             nearest = nearest_range(positions, *bounding_box(pixels)) if len(pixels) else None
             tiled = [backproject_tiled(*arguments, pixels[c], *common,
                                        sweep_range=_rows(ranges, c), aspect=_rows(aspect, c),
-                                       row_length=row_length, nearest=nearest, **how,
+                                       row_length=row_length, nearest=nearest,
+                                       columns=columns, slab_rows=_slab_rows(
+                                           c, row_length, slab_rows), **how,
                                        while_running=None if c.stop < len(pixels) else
                                        lambda: aperture_weights(bp, raw, pixels, half_width,
                                                                 coordinates))
@@ -193,6 +199,41 @@ def focus_bpa(raw: xr.Dataset, pixels: NDArray, *, half_width: float, window: st
     return values, coverage, {"band_selection": bp.band_selection, **kernel,
                               "range_upsample": int(range_upsample),
                               "range_interpolation": range_interpolation}
+
+
+def _chunks(count: int, size: int, row_length: int | None, slab_rows: int | None
+            ) -> list[slice]:
+    """Pixel chunks of about ``size`` pixels that keep the pixel-group lanes where they are on
+    the whole grid: whole rows (lanes along the rows), or with ``slab_rows`` (lanes along
+    the columns of each slab) whole slabs, or blocks of ``LANE_SIZES[0]`` rows of a slab
+    larger than ``size`` with its last rows joined to the block before. None: any cut (the
+    NumPy sum, points)."""
+    if not row_length:
+        return [slice(start, start + size) for start in range(0, count, size)]
+    if not slab_rows:
+        size = max(row_length, size // row_length * row_length)
+        return [slice(start, start + size) for start in range(0, count, size)]
+    slab = slab_rows * row_length
+    if size >= slab:
+        size = size // slab * slab
+        return [slice(start, start + size) for start in range(0, count, size)]
+    block = LANE_SIZES[0] * row_length
+    size = max(block, size // block * block)
+    out = []
+    for first in range(0, count, slab):
+        cuts = list(range(first, first + slab, size))
+        if len(cuts) > 1 and first + slab - cuts[-1] < block:
+            cuts.pop()   # too few rows for a lane: joined to the block before
+        out += [slice(a, b) for a, b in zip(cuts, [*cuts[1:], first + slab], strict=True)]
+    return out
+
+
+def _slab_rows(chunk: slice, row_length: int | None, slab_rows: int | None) -> int | None:
+    """A chunk's rows per slab: the slab's, or the chunk's own when it is a block of one
+    slab (:func:`_chunks`)."""
+    if not row_length or not slab_rows:
+        return slab_rows
+    return min(slab_rows, (chunk.stop - chunk.start) // row_length)
 
 
 def curved_sweep_range(pixels: NDArray, positions: NDArray, velocities: NDArray,

@@ -254,7 +254,9 @@ def focus(raw: xr.Dataset | Sequence[xr.Dataset], algorithm: str = "bpa",
                 range_interpolation=range_interpolation,
                 pixel_chunk=pixel_chunk or (1 << 16 if progress else 1 << 20),
                 row_length=(layout["position"].shape[-2] if layout["position"].ndim > 2
-                            else None)),
+                            else None),
+                slab_rows=(layout["position"].shape[-3] if layout["position"].ndim > 2
+                           else None)),
             raw, radar, layout["position"], half_width, window, band_limit and not autofocus)
     shape = layout["position"].shape[:-1]  # the grid's dims: two, or three for a volume
     image = make_image_product(raw, np.reshape(values, shape), layout, {**processing, **extra},
