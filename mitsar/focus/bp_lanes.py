@@ -11,6 +11,8 @@ the regular-row test (:func:`row_step`), whether every lookup stays inside the p
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -201,34 +203,35 @@ def column_order(pixels: NDArray, row_length: int | None, slab_rows: int | None,
     """The pixel order that lays the lanes along the columns of each slab, or None (rows).
 
     ``pixels`` in row-major order, rows of ``row_length``, ``slab_rows`` rows per slab (a
-    volume's z slices; None: one slab). Columns only where both the rows and the columns of
-    every slab are regular and the columns move the lookup less per pixel: ``|A| c(A)``
-    smaller than for the row step by a quarter at least, ``c`` the bound of ``|Â.û|`` of
-    :func:`shared_slots` without its range-dependent spread (so the choice depends on the
-    grid's steps, the track and the window only: a volume and its slices, and every pixel
-    chunk, choose alike). A row across the track moves the lookup by up to a pixel's size in
-    range per pixel, a column along it by that times the window's direction sine.
+    volume's z slices; None: one slab). Columns where a column step moves the lookup less
+    per pixel: ``|A| c(A)`` smaller than for the row step by a quarter at least, ``c`` the
+    bound of ``|Â.û|`` of :func:`shared_slots` without its range-dependent spread, so the
+    choice depends on the grid's first row and column steps, the track and the window only
+    (a volume and its slices, and every pixel chunk, choose alike). A row across the track
+    moves the lookup by up to a pixel's size in range per pixel, a column along it by that
+    times the window's direction sine. Whether the columns are regular is left to the
+    caller (:func:`mitsar.focus.bp_tiled.backproject_tiled` tests the lanes it lays).
     """
     if not row_length or row_length < 2 or len(pixels) % row_length:
         return None
     rows = len(pixels) // row_length
     slab_rows = slab_rows or rows
-    if rows % slab_rows or slab_rows < LANE_SIZES[0]:
-        return None
-    step = row_step(pixels, row_length)
-    order = slab_transpose(len(pixels), row_length, slab_rows)
-    column = row_step(pixels[order], slab_rows) if step is not None else None
     speed = np.linalg.norm(velocities, axis=-1)
-    if column is None or not (speed > 0).all():
+    if rows % slab_rows or slab_rows < LANE_SIZES[0] or not (speed > 0).all():
         return None
 
     def change(along: NDArray) -> float:  # |A| c(A), per metre of range per pixel
         length = float(np.linalg.norm(along))
+        if length == 0:
+            return math.inf
         a = np.abs(velocities @ (along / length)) / speed
         cosine = a * (np.abs(centroid_sine) + half_width) + np.sqrt(np.maximum(1 - a**2, 0.0))
         return length * min(1.0, float(cosine.max()))
 
-    return order if change(column) < 0.75 * change(step) else None
+    row, column = pixels[1] - pixels[0], pixels[row_length] - pixels[0]
+    if change(column) >= 0.75 * change(row):
+        return None
+    return slab_transpose(len(pixels), row_length, slab_rows)
 
 
 def slab_transpose(count: int, row_length: int, slab_rows: int) -> NDArray[np.int64]:
