@@ -27,6 +27,10 @@ one receiver 1788 channels x sweeps/s (143 ms), two 2290 (224 ms): the tracer's 
 After the block-buffered synthesis (quiet machine, load 0.2-0.8, ``--rounds 9``): one
 receiver 131 ms, two 185 ms: 1.41x; kernels 1.55x; block kernel 1.75x; analytic 2.2x.
 The issue's < 1.3x is not met (docs/interferometry.md §8 "Cost" says what is left).
+27 November, after the shared cubic lookups of the monostatic BPA (mitsar.focus.bp_tiled step
+5), ``--rounds 7``, load ~1 (a reviewer session running): tracer 1.52x (158 -> 239 ms), BPA
+2.69x: the first channel (monostatic) takes the pixel groups with shared lookups, the second
+(bistatic: half its path per pixel) still the exact kernel.
 ``--visibility``: ``control_volume`` 0 of 851,855 in-beam deposits; the room test's 0.2 m box
 on a floor 154 of 406,278 (0.038 %).
 
