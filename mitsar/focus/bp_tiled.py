@@ -204,27 +204,26 @@ def backproject_tiled(profile: NDArray, frequency: NDArray, radar: Radar, pixels
                       / SPEED_OF_LIGHT)
     if row_length is not None and row_length < min(LANE_SIZES):
         row_length = None  # rows too short to fill a lane: groups of consecutive points
-    step = row_step(pixels, row_length)
     if columns is None:   # decided here (a focus decides once for all its chunks)
         columns = (aspect is None and share_lookups and interpolation == "cubic"
                    and column_order(pixels, row_length, slab_rows, velocities, centroid_sine,
                                     half_width) is not None)
-    order = None
     if columns and aspect is None and row_length and count % row_length == 0:
         slab_rows = slab_rows or count // row_length
-        if (count // row_length) % slab_rows == 0:
-            order = slab_transpose(count, row_length, slab_rows)
-            if row_step(pixels[order], slab_rows) is None:
-                order = None
-    if order is not None:  # the lanes along the columns: the same sum, transposed
-        values, totals, info = backproject_tiled(
-            profile, frequency, radar, pixels[order], positions, velocities, centroid_sine,
-            half_width, window, motion_correction, (first[order], end[order]), None,
-            slab_rows or count // row_length, interpolation, while_running, share_lookups,
-            packets, nearest, columns=False)
-        weighted_sum, total = np.empty_like(values), np.empty_like(totals)
-        weighted_sum[order], total[order] = values, totals
-        return weighted_sum, total, {**info, "lanes_along": "columns"}
+        order = (slab_transpose(count, row_length, slab_rows)
+                 if (count // row_length) % slab_rows == 0 else None)
+        transposed = None if order is None else pixels[order]
+        if transposed is not None and row_step(transposed, slab_rows) is not None:
+            # the lanes along the columns: the same sum, transposed
+            values, totals, info = backproject_tiled(
+                profile, frequency, radar, transposed, positions, velocities, centroid_sine,
+                half_width, window, motion_correction, (first[order], end[order]), None,
+                slab_rows, interpolation, while_running, share_lookups, packets, nearest,
+                columns=False)
+            weighted_sum, total = np.empty_like(values), np.empty_like(totals)
+            weighted_sum[order], total[order] = values, totals
+            return weighted_sum, total, {**info, "lanes_along": "columns"}
+    step = row_step(pixels, row_length)
     sizes = [s for s in LANE_SIZES if row_length is None or s <= row_length] or [LANE_SIZES[-1]]
     for size in sizes:
         groups, centre, offsets, error = lanes_of(pixels, row_length, size, step, positions,

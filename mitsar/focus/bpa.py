@@ -133,9 +133,11 @@ def focus_bpa(raw: xr.Dataset, pixels: NDArray, *, half_width: float, window: st
     if bp.band_selection == "pixel" and not bp.straight and half_width < bp.beam_half_width:
         aspect = reuse("aspect_frames", (pixels, positions, bp.velocities, bp.centroid),
                        lambda: aspect_frames(pixels, positions, bp.velocities, bp.centroid))
-    tiled = backend != "numpy" and bp.receivers is None and backend_name() != "cuda"
+    # by pixel groups (bp_tiled) on the CPU; on a GPU the exact kernel is the faster one
+    # (1.6-1.9x the groups on an H100, docs/gpu.md §6), and a bistatic channel needs it
+    by_groups = backend != "numpy" and bp.receivers is None and backend_name() != "cuda"
     # lanes along the grid's columns (bp_tiled.column_order), decided once for all chunks
-    columns = bool(tiled and aspect is None and range_interpolation == "cubic"
+    columns = bool(by_groups and aspect is None and range_interpolation == "cubic"
                    and column_order(pixels, row_length, slab_rows, bp.velocities,
                                     bp.centroid, bp.kernel_half_width) is not None)
     chunks = tqdm(_chunks(len(pixels), pixel_chunk, row_length if backend != "numpy" else None,
@@ -165,11 +167,9 @@ def focus_bpa(raw: xr.Dataset, pixels: NDArray, *, half_width: float, window: st
                                                   bp.centroid, bp.kernel_half_width, aspect),
                            lambda: curved_sweep_range(pixels, positions, bp.velocities,
                                                       bp.centroid, bp.kernel_half_width, aspect))
-        # By pixel groups (bp_tiled) on the CPU; on a GPU the exact kernel is the faster one
-        # (1.6-1.9x the groups on an H100, docs/gpu.md §6), and a bistatic channel needs it.
-        if tiled:
-            # the aperture weights (host work) while the last chunk's kernel runs
-            # the whole grid's nearest range: every chunk shares lookups alike
+        if by_groups:
+            # the whole grid's nearest range: every chunk shares lookups alike; the aperture
+            # weights (host work) while the last chunk's kernel runs
             nearest = nearest_range(positions, *bounding_box(pixels)) if len(pixels) else None
             tiled = [backproject_tiled(*arguments, pixels[c], *common,
                                        sweep_range=_rows(ranges, c), aspect=_rows(aspect, c),
