@@ -315,14 +315,18 @@ def _place_bins(rows: NDArray, centring: NDArray, slots: NDArray, spectrum: NDAr
     zeros elsewhere: one run of slots, a run that wraps around the M slots, or (a grid wider
     than the band) several bins aliased onto one slot."""
     count, size = len(slots), spectrum.shape[-1]
-    spectrum[...] = 0
-    if count <= size and slots[0] + count <= size:  # one run of slots: weighted in place
-        np.multiply(rows, centring, out=spectrum[:, slots[0]:slots[0] + count])
-    elif count <= size and len(np.unique(slots)) == count:  # the run wraps around
-        split = size - slots[0]
-        np.multiply(rows[:, :split], centring[:split], out=spectrum[:, slots[0]:])
+    first = int(slots[0])
+    if count <= size and first + count <= size:  # one run of slots: weighted in place
+        spectrum[:, :first] = 0
+        spectrum[:, first + count:] = 0
+        np.multiply(rows, centring, out=spectrum[:, first:first + count])
+    elif count <= size:  # the run wraps around (consecutive bins: no slot twice)
+        split = size - first
+        spectrum[:, count - split:first] = 0
+        np.multiply(rows[:, :split], centring[:split], out=spectrum[:, first:])
         np.multiply(rows[:, split:], centring[split:], out=spectrum[:, :count - split])
     else:  # a grid wider than the band: several bins alias onto one DFT slot
+        spectrum[...] = 0
         weighted = rows * centring
         for slot in np.unique(slots):
             spectrum[:, slot] = weighted[:, slots == slot].sum(axis=-1)

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mitsar.model.geometry.antenna import direction_sines, two_way_pattern
+from mitsar.model.geometry.antenna import direction_sines, one_way_pattern
 from mitsar.model.radar import Radar
 
 SWEEPS_SAMPLED = 257
@@ -110,8 +110,9 @@ def reception(radar: Radar, positions: ArrayLike, antenna: ArrayLike, frames: Ar
     u_az, u_el, cos_b = direction_sines(directions, frame)
     lobe = ((cos_b > 0.0) & (np.abs(u_az) < radar.azimuth_beamwidth)
             & (np.abs(u_el) < radar.elevation_beamwidth))
-    pattern = two_way_pattern(directions, frame, radar.azimuth_beamwidth,
-                              radar.elevation_beamwidth)
+    # two_way_pattern's P^2 from the sines above (computed once)
+    pattern = one_way_pattern(u_az, u_el, radar.azimuth_beamwidth, radar.elevation_beamwidth,
+                              cos_b) ** 2
     far = fraunhofer_distance(radar)
     return Reception(min_range=slant.min(axis=0), max_range=slant.max(axis=0),
                      in_band=np.mean(slant <= radar.max_range, axis=0),
