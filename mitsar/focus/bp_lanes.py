@@ -144,7 +144,8 @@ SHARED_SLOTS = (16, 8, 4, 2)
 
 def shared_slots(step: NDArray, size: int, frequency: NDArray, radar: Radar, nearest: float,
                  reach: float, positions: NDArray, velocities: NDArray,
-                 centroid_sine: NDArray, half_width: float, fractional: bool) -> int:
+                 centroid_sine: NDArray, half_width: float, fractional: bool,
+                 baseline: float = 0.0) -> int:
     """Pixels of a regular row that may share one lookup (step 5 of
     :mod:`mitsar.focus.bp_tiled`): the largest S of
     :data:`SHARED_SLOTS` dividing the lane size with ``(S - 1) sigma <= 1`` (every slot's
@@ -162,7 +163,11 @@ def shared_slots(step: NDArray, size: int, frequency: NDArray, radar: Radar, nea
     slot, padding past a row's end included, lies within ``reach`` of its lane centre, itself
     within ``reach`` of a pixel); so ``c = max_k
     min(1, |a_k| (|u_c,k| + h' + (S - 1) |A| / R) + sqrt(1 - a_k^2))``. The direction sine
-    changes by at most ``2 |A| / R`` per slot, which moves the Doppler term. Hence ``sigma =
+    changes by at most ``2 |A| / R`` per slot, which moves the Doppler term. A bistatic
+    channel (receiver at most ``baseline`` [m] from the transmitter, ``nearest`` the nearer
+    of the two phase centres') looks up half its path, whose change per slot is the mean of
+    the two legs'; its receiver's line of sight is within ``baseline / R`` of the
+    transmitter's, which widens the spread by that much. Hence ``sigma =
     |A| (b c + 2 d / R)`` with ``b`` bins per metre of range and ``d`` the largest Doppler
     shift in bins (``f_c |v| / K`` in range), and 1 % of margin for the float32 polynomials of
     eqs. (1)-(2) of :mod:`mitsar.focus.bp_tiled`. Along the track ``c`` is about the
@@ -188,7 +193,7 @@ def shared_slots(step: NDArray, size: int, frequency: NDArray, radar: Radar, nea
     for slots in SHARED_SLOTS:
         if size % slots:
             continue
-        spread = (slots - 1) * length / nearest
+        spread = ((slots - 1) * length + baseline) / nearest
         cosine = min(1.0, float((along * (np.abs(centroid_sine) + window + spread)
                                  + across).max()))
         sigma = 1.01 * length * (per_metre * cosine + 2 * doppler / nearest)

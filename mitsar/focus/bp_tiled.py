@@ -54,6 +54,18 @@ Meta 2007 §II-B; interpolation of the zero-padded range profile,
    on the CPU: kernel 283 -> 155-175 ms. Cubic only (a shared linear lookup would triple its
    bound), and only where every lookup is known to lie inside the profile (no bounds test).
 
+6. a bistatic channel (receiver at ``r_k``, away from the transmitter ``p_k``) looks up half
+   its exact path ``P = (|c + d - p_k| + |c + d - r_k|) / 2``
+   (:func:`mitsar.model.signal.half_path`): per lane and sweep both legs in float64, the
+   profile position and carrier turns of ``P`` at the centre, and (1) for each leg with its
+   own unit vector and range, the lookup position and phase following the mean of the two
+   offsets (on a regular row the mean of two cubics in m, still one cubic). The direction
+   sine, the window and the Doppler term stay the transmitter's, as in
+   :func:`mitsar.focus.backprojection.pixel_pulse`. The bounds hold with both phase centres:
+   the expansion error (each leg's remainder is at most (1)'s bound at the nearer of the
+   two) and the lookups inside the profile (``P`` lies between the two ranges) over both
+   sets of positions, and :func:`shared_slots` widens its spread by the baseline over R.
+
 A lane is used only where the phase error of (1), ``4 pi f_max / c * h^4 / (2 r^3)``, stays
 below :data:`PHASE_LIMIT`; the lane size G is the largest of :data:`LANE_SIZES` for which all
 lanes pass, and lanes that fail even at the smallest size go to the exact kernel
@@ -105,6 +117,7 @@ from mitsar.focus.interpolation import DEFAULT_INTERPOLATION, evaluate, jit_pack
 from mitsar.focus.windows import cosine_series
 from mitsar.model.geometry.bounds import bounding_box
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
+from mitsar.model.signal import half_path
 
 __all__ = ["LANE_SIZES", "SHARED_SLOTS", "SWEEP_PARTS", "PHASE_LIMIT", "backproject_tiled",
            "column_order", "lane_layout", "nearest_range", "row_step", "shared_slots",
@@ -160,10 +173,12 @@ def backproject_tiled(profile: NDArray, frequency: NDArray, radar: Radar, pixels
                       while_running: Callable[[], Any] | None = None,
                       share_lookups: bool = True, packets: Any = None,
                       nearest: float | None = None, columns: bool | None = None,
-                      slab_rows: int | None = None) -> tuple[NDArray, NDArray, dict]:
+                      slab_rows: int | None = None, receivers: NDArray | None = None
+                      ) -> tuple[NDArray, NDArray, dict]:
     """Back-projection by lanes of neighbouring pixels (module docstring).
 
-    Parameters as :func:`mitsar.focus.backprojection.backproject_drjit` (monostatic only),
+    Parameters as :func:`mitsar.focus.backprojection.backproject_drjit` (``receivers``: a
+    bistatic channel's receive phase centre per sweep, step 6 of the module docstring),
     plus ``row_length``: pixels per row of the grid the pixels come from in row-major order
     (the lanes follow rows), None for points in no particular layout, and ``interpolation``
     of the profiles (:mod:`mitsar.focus.interpolation`); ``while_running``, optional host work
@@ -219,14 +234,19 @@ def backproject_tiled(profile: NDArray, frequency: NDArray, radar: Radar, pixels
                 profile, frequency, radar, transposed, positions, velocities, centroid_sine,
                 half_width, window, motion_correction, (first[order], end[order]), None,
                 slab_rows, interpolation, while_running, share_lookups, packets, nearest,
-                columns=False)
+                columns=False, receivers=receivers)
             weighted_sum, total = np.empty_like(values), np.empty_like(totals)
             weighted_sum[order], total[order] = values, totals
             return weighted_sum, total, {**info, "lanes_along": "columns"}
     step = row_step(pixels, row_length)
+    # the phase centres the lanes' bounds hold for: the transmitter's, and a bistatic
+    # channel's receiver's too (its half path lies between the two ranges, step 6)
+    centres, moving = ((positions, velocities) if receivers is None else
+                       (np.concatenate([positions, receivers]),
+                        np.concatenate([velocities, velocities])))
     sizes = [s for s in LANE_SIZES if row_length is None or s <= row_length] or [LANE_SIZES[-1]]
     for size in sizes:
-        groups, centre, offsets, error = lanes_of(pixels, row_length, size, step, positions,
+        groups, centre, offsets, error = lanes_of(pixels, row_length, size, step, centres,
                                                 PHASE_LIMIT / top_wavenumber)
         good = top_wavenumber * error <= PHASE_LIMIT
         if good.all():
@@ -235,7 +255,8 @@ def backproject_tiled(profile: NDArray, frequency: NDArray, radar: Radar, pixels
         values, totals = backproject_drjit(profile, frequency, radar, pixels, positions,
                                            velocities, centroid_sine, half_width, window,
                                            motion_correction, sweep_range, aspect,
-                                           interpolation=interpolation, packets=packets)
+                                           receivers=receivers, interpolation=interpolation,
+                                           packets=packets)
         info["while_running"] = while_running() if while_running else None
         return values, totals, info
     weighted_sum = np.zeros(count, dtype=complex)
@@ -254,21 +275,22 @@ def backproject_tiled(profile: NDArray, frequency: NDArray, radar: Radar, pixels
     # pixel to lane centre [m] (a regular lane: its end slots, (G - 1) / 2 steps away)
     reach = (float(np.linalg.norm(step)) * (groups.shape[1] - 1) / 2 if step is not None
              else float(np.abs(offsets).max(initial=0.0)) * math.sqrt(3))
-    checked = not lookups_inside(frequency, radar, centre[good], positions, velocities, reach)
+    checked = not lookups_inside(frequency, radar, centre[good], centres, moving, reach)
     shared = 1
     if share_lookups and step is not None and frames is None and not checked \
             and interpolation == "cubic":
-        own = nearest_range(positions, *bounding_box(pixels))
+        own = nearest_range(centres, *bounding_box(pixels))
         shared = shared_slots(step, groups.shape[1], frequency, radar,
                               own if nearest is None else min(nearest, own), reach,
                               positions, velocities, centroid_sine, half_width,
-                              fractional_edges(radar, half_width))
+                              fractional_edges(radar, half_width),
+                              _baseline(positions, receivers))
     sums, totals, done = _run_lanes(profile, frequency, radar, centre[good][order],
                                     offsets[good][order] if step is None else step,
                                     lane_first[order], lane_end[order], frames, positions,
                                     velocities, centroid_sine, half_width, window,
                                     motion_correction, checked, groups.shape[1], interpolation,
-                                    while_running, shared, packets)
+                                    while_running, shared, packets, receivers)
     keep = valid.ravel()
     weighted_sum[lanes.ravel()[keep]] = sums.ravel()[keep]
     total[lanes.ravel()[keep]] = totals.ravel()[keep]
@@ -279,13 +301,20 @@ def backproject_tiled(profile: NDArray, frequency: NDArray, radar: Radar, pixels
             profile, frequency, radar, pixels[rest], positions, velocities, centroid_sine,
             half_width, window, motion_correction, (first[rest], end[rest]),
             None if aspect is None else (aspect[0][rest], aspect[1][rest]),
-            interpolation=interpolation, packets=packets)
+            receivers=receivers, interpolation=interpolation, packets=packets)
         weighted_sum[rest], total[rest] = values, totals_rest
     return weighted_sum, total, {
         "lane_pixels": int(groups.shape[1]), "exact_pixels": int(len(rest)),
         "row_step": int(step is not None), "shared_lookup": shared, "lanes_along": "rows",
         "predicted_phase_error": float(top_wavenumber * error[good].max()),
         "while_running": done}
+
+
+def _baseline(positions: NDArray, receivers: NDArray | None) -> float:
+    """The largest transmitter-to-receiver distance [m] of a bistatic channel (0 without)."""
+    if receivers is None:
+        return 0.0
+    return float(np.linalg.norm(receivers - positions, axis=-1).max(initial=0.0))
 
 
 SWEEP_PARTS = 8
@@ -304,7 +333,7 @@ def _run_lanes(profile: NDArray, frequency: NDArray, radar: Radar, centre: NDArr
                motion_correction: bool, checked: bool, size: int,
                interpolation: str = DEFAULT_INTERPOLATION,
                while_running: Callable[[], Any] | None = None, shared: int = 1,
-               packets: Any = None) -> tuple:
+               packets: Any = None, receivers: NDArray | None = None) -> tuple:
     """The Dr.Jit kernel over lanes: sums (L, G) complex, weight totals (L, G) and the result
     of ``while_running`` (called once the kernel is launched, None if not given).
 
@@ -312,7 +341,8 @@ def _run_lanes(profile: NDArray, frequency: NDArray, radar: Radar, centre: NDArr
     sweeps run in one kernel lane per part of :data:`SWEEP_PARTS` that they touch; the parts
     are summed here. ``checked``: test every lookup against the profile's ends (else
     :func:`lookups_inside` holds); ``shared``: pixels per lookup (step 5, regular lanes);
-    ``packets``: the packed profiles if already made.
+    ``packets``: the packed profiles if already made; ``receivers``: a bistatic channel's
+    receive phase centres (step 6).
     """
     jit = array_namespace()
     Float32, Float64, UInt32 = jit.Float32, jit.Float64, jit.UInt32
@@ -322,7 +352,7 @@ def _run_lanes(profile: NDArray, frequency: NDArray, radar: Radar, centre: NDArr
     pairs = jit_packets(profile, interpolation, jit_array) if packets is None else packets
     constants, sweep_arrays, _ = kernel_tables(profile[:, :2], frequency[:2], radar, positions,
                                                velocities, centroid_sine, half_width,
-                                               window, motion_correction,
+                                               window, motion_correction, receivers,
                                                interpolation=interpolation, packets=pairs)
     constants["bins"] = dr.opaque(UInt32, profile.shape[1])
     sweeps = len(positions)
@@ -372,7 +402,9 @@ def lane_loop(lane: dict, first: Any, end: Any, sweep_arrays: list, pairs: Any,
     ``lane``: ``centre`` (3 float64 arrays), then either ``step`` (the row step A, 3 opaque
     float32: slot g at ``c + (g - (G - 1) / 2) A``, G = ``size``) or ``offsets`` (per slot,
     3 float32 arrays), optionally ``frames`` (per slot: aspect direction and centre sine),
-    and ``checked`` (test the lookups against the profile's ends).
+    and ``checked`` (test the lookups against the profile's ends). ``sweep_arrays`` of
+    :func:`mitsar.focus.backprojection.kernel_tables`, with a bistatic channel's receiver
+    positions after the first eight (step 6).
     """
     jit = namespace_of(first)
     Float32, Int32, UInt32 = jit.Float32, jit.Int32, jit.UInt32
@@ -397,6 +429,7 @@ def lane_loop(lane: dict, first: Any, end: Any, sweep_arrays: list, pairs: Any,
     inverse_width = 1.0 / (2.0 * half_width)
     last_bin = Int32(bins - 1)
 
+    bistatic = len(sweep_arrays) > 8  # step 6: the receiver's positions follow
     start_row: list = [None]  # the sweep's first flat index, for the bounds test
 
     def condition(k: Any, *_: Any) -> Any:
@@ -413,11 +446,22 @@ def lane_loop(lane: dict, first: Any, end: Any, sweep_arrays: list, pairs: Any,
         ux, uy, uz = Float32(wx) * inverse32, Float32(wy) * inverse32, Float32(wz) * inverse32
         half_inverse = 0.5 * inverse32
         half_inverse2 = half_inverse * inverse32
-        lower, fraction = profile_position(r * constants["range_scale"],
+        path = r
+        if bistatic:  # step 6: the receiver's leg, the same way; half the path looked up
+            ex, ey, ez = (cx - dr.gather(type(sweep_arrays[8]), sweep_arrays[8], k),
+                          cy - dr.gather(type(sweep_arrays[9]), sweep_arrays[9], k),
+                          cz - dr.gather(type(sweep_arrays[10]), sweep_arrays[10], k))
+            r_rx = dr.sqrt(ex * ex + ey * ey + ez * ez)
+            path = half_path(r, r_rx)
+            inverse_rx = dr.rcp(Float32(r_rx))
+            qx, qy, qz = (Float32(e) * inverse_rx for e in (ex, ey, ez))
+            half_inverse_rx = 0.5 * inverse_rx
+            half_inverse2_rx = half_inverse_rx * inverse_rx
+        lower, fraction = profile_position(path * constants["range_scale"],
                                            -constants["index_offset"], 1.0, dr.floor)
         base = Int32(lower)
         fraction = Float32(fraction)
-        turns = Float32(carrier_turns(r, constants["carrier_scale"], dr.floor))
+        turns = Float32(carrier_turns(path, constants["carrier_scale"], dr.floor))
         fx32, fy32, fz32 = Float32(wx), Float32(wy), Float32(wz)
         along = fx32 * vx + fy32 * vy + fz32 * vz                     # v . w
         doppler = constants["doppler_scale"] * speed
@@ -437,11 +481,17 @@ def lane_loop(lane: dict, first: Any, end: Any, sweep_arrays: list, pairs: Any,
             # eq. (1) on the row: delta(m) = m (d_1 + m (d_2 + m d_3)); the lookup position
             # and the phase are cubics in m, the window offset a quadratic (Horner's rule)
             across = dr.fma(-step_u, step_u, step_norm2)       # |A|^2 - (A.u)^2
-            d_2, d_3 = across * half_inverse, -step_u * across * half_inverse2
+            d_1, d_2, d_3 = step_u, across * half_inverse, -step_u * across * half_inverse2
+            if bistatic:  # step 6: the mean of the two legs' cubics
+                step_q = dr.fma(step[0], qx, dr.fma(step[1], qy, step[2] * qz))
+                across_q = dr.fma(-step_q, step_q, step_norm2)
+                d_1 = half_path(step_u, step_q)
+                d_2 = half_path(d_2, across_q * half_inverse_rx)
+                d_3 = half_path(d_3, -step_q * across_q * half_inverse2_rx)
             position = (dr.fma(doppler, sine_centre, fraction),
-                        dr.fma(bins_per_metre, step_u, doppler * sine_1),
+                        dr.fma(bins_per_metre, d_1, doppler * sine_1),
                         dr.fma(bins_per_metre, d_2, doppler * sine_2), bins_per_metre * d_3)
-            cycles = (0.5 * turns, half_turns_per_metre * step_u, half_turns_per_metre * d_2,
+            cycles = (0.5 * turns, half_turns_per_metre * d_1, half_turns_per_metre * d_2,
                       half_turns_per_metre * d_3)   # half turns (sincos_half_turns)
             window_offset = (sine_centre - centroid, sine_1, sine_2)
             if fractional:  # 1 / delta(m) = R / (|v| T (1 - s^2)), first order in m (step 3)
@@ -478,17 +528,24 @@ def lane_loop(lane: dict, first: Any, end: Any, sweep_arrays: list, pairs: Any,
                 continue
             if offset_xyz is None:
                 a = m * step_u
+                a_rx = m * step_q if bistatic else None
             else:
                 dx, dy, dz = offset_xyz
                 a = dr.fma(dx, ux, dr.fma(dy, uy, dz * uz))
+                a_rx = dr.fma(dx, qx, dr.fma(dy, qy, dz * qz)) if bistatic else None
             b = dr.fma(-a, a, dd)
             delta = dr.fma(b, dr.fma(-a, half_inverse2, half_inverse), a)     # eq. (1)
+            path_delta = delta
+            if bistatic:  # step 6: eq. (1) for the receiver's leg, half the sum
+                b_rx = dr.fma(-a_rx, a_rx, dd)
+                path_delta = half_path(delta, dr.fma(
+                    b_rx, dr.fma(-a_rx, half_inverse2_rx, half_inverse_rx), a_rx))
             ratio = delta * inverse32   # 1 / (r + delta) to second order in delta / r
             inverse_range = dr.fma(inverse32, dr.fma(ratio, ratio, -ratio), inverse32)
             if offset_xyz is None:
                 dx, dy, dz = m * step[0], m * step[1], m * step[2]
             sine = (along + dr.fma(dx, vx, dr.fma(dy, vy, dz * vz))) * inverse_range
-            shift, frac = profile_position(dr.fma(delta, bins_per_metre,
+            shift, frac = profile_position(dr.fma(path_delta, bins_per_metre,
                                                   dr.fma(doppler, sine, fraction)),
                                            0.0, 1.0, dr.floor)
             rate = None
@@ -505,7 +562,7 @@ def lane_loop(lane: dict, first: Any, end: Any, sweep_arrays: list, pairs: Any,
                                   dr.fma(fx, vx, dr.fma(fy, vy, fz * vz)))
             inverse_step = (inverse_window_step(rate, spacing * inverse_range, dr.maximum)
                             if fractional else None)
-            phase = dr.fma(delta, half_turns_per_metre, 0.5 * turns)
+            phase = dr.fma(path_delta, half_turns_per_metre, 0.5 * turns)
             out += _accumulate(shift, frac, phase, offset, inverse_step, start,
                                accumulators[3 * g:])
         return (k + 1, *out)

@@ -133,9 +133,9 @@ def focus_bpa(raw: xr.Dataset, pixels: NDArray, *, half_width: float, window: st
     if bp.band_selection == "pixel" and not bp.straight and half_width < bp.beam_half_width:
         aspect = reuse("aspect_frames", (pixels, positions, bp.velocities, bp.centroid),
                        lambda: aspect_frames(pixels, positions, bp.velocities, bp.centroid))
-    # by pixel groups (bp_tiled) on the CPU; on a GPU the exact kernel is the faster one
-    # (1.6-1.9x the groups on an H100, docs/gpu.md §6), and a bistatic channel needs it
-    by_groups = backend != "numpy" and bp.receivers is None and backend_name() != "cuda"
+    # by pixel groups (bp_tiled) on the CPU, a bistatic channel's too (its step 6); on a GPU
+    # the exact kernel is the faster one (1.6-1.9x the groups on an H100, docs/gpu.md §6)
+    by_groups = backend != "numpy" and backend_name() != "cuda"
     # lanes along the grid's columns (bp_tiled.column_order), decided once for all chunks
     columns = bool(by_groups and aspect is None and range_interpolation == "cubic"
                    and column_order(pixels, row_length, slab_rows, bp.velocities,
@@ -170,12 +170,15 @@ def focus_bpa(raw: xr.Dataset, pixels: NDArray, *, half_width: float, window: st
         if by_groups:
             # the whole grid's nearest range: every chunk shares lookups alike; the aperture
             # weights (host work) while the last chunk's kernel runs
-            nearest = nearest_range(positions, *bounding_box(pixels)) if len(pixels) else None
+            centres = positions if bp.receivers is None else np.concatenate(
+                [positions, bp.receivers])   # a bistatic channel: the nearer phase centre
+            nearest = nearest_range(centres, *bounding_box(pixels)) if len(pixels) else None
             tiled = [backproject_tiled(*arguments, pixels[c], *common,
                                        sweep_range=_rows(ranges, c), aspect=_rows(aspect, c),
                                        row_length=row_length, nearest=nearest,
                                        columns=columns, slab_rows=_slab_rows(
-                                           c, row_length, slab_rows), **how,
+                                           c, row_length, slab_rows),
+                                       receivers=bp.receivers, **how,
                                        while_running=None if c.stop < len(pixels) else
                                        lambda: aperture_weights(bp, raw, pixels, half_width,
                                                                 coordinates))
@@ -185,7 +188,7 @@ def focus_bpa(raw: xr.Dataset, pixels: NDArray, *, half_width: float, window: st
             exact = sum(t[2]["exact_pixels"] for t in tiled)
             kernel = {"bp_kernel": "tiled" if exact == 0 else "tiled+exact",
                       "bp_lane_pixels": max(t[2]["lane_pixels"] for t in tiled)}
-        else:  # the exact kernel: a GPU, or a bistatic channel (half its path per pixel)
+        else:  # the exact kernel (a GPU)
             results = [backproject_drjit(*arguments, pixels[c], *common,
                                          sweep_range=_rows(ranges, c), aspect=_rows(aspect, c),
                                          receivers=bp.receivers, **how)
