@@ -427,3 +427,22 @@ def test_packet_window_covers_every_reachable_bin():
     assert width < 0.25 * grid["bins"]
     assert blocks_module.packet_window(0.0, 100.0, 0.1, k) == (0, 2999)  # clipped
     assert blocks_module.packet_window(float("inf"), 0.0, 0.1, k) == (0, 1)  # no candidate
+
+
+def test_direct_rounding_of_the_packets_gives_the_magic_numbers_bits(monkeypatch):
+    """The packets' fixed point (blocks.direct_rounding): float32 deposits rounded straight to
+    int64 and through the float64 magic number 1.5 x 2^52 both round half to even, so the
+    traced histograms of two receivers (a monostatic one and one 5 cm above: both legs of
+    the kernel) are the same bits either way. Forcing the direct path on a CPU without
+    AVX-512DQ is slow but exact, so this runs everywhere."""
+    radar = mitsar.Radar(receivers=[(0.0, 0.0, 0.0), (0.0, 0.0, 0.05)])
+    scene = load_scene("control_volume")
+    track = mitsar.Trajectory.linear(START, [0.5, 0.0, 0.0], 40.5 / RADAR.prf)
+    traced = {}
+    for direct in (False, True):
+        monkeypatch.setattr(blocks_module, "direct_rounding", lambda d=direct: d)
+        traced[direct] = trace(radar, track, LOOK, scene, density=60.0)
+    assert traced[True].attrs["traced_shadow_rays"] > 10_000
+    histogram = traced[True]["histogram"].values
+    assert np.count_nonzero(histogram) > 0.05 * histogram.size
+    np.testing.assert_array_equal(histogram, traced[False]["histogram"].values)
