@@ -228,13 +228,15 @@ class TraceRun:
             if not 0 <= channel < radar.channel_count:
                 raise ParameterError(where, "channel", f"a channel of the radar, in [0, "
                                      f"{radar.channel_count})", channel)
-        if self.config.max_depth > 1 or self.setup.bistatic:
-            raise ParameterError(where, "max_depth" if self.config.max_depth > 1
-                                 else "receiver_offset", "direct backscatter only (max_depth "
-                                 "1, monostatic options) with a multi-channel radar: multipath "
-                                 "of channels is not traced yet (docs/interferometry.md)",
-                                 self.config.max_depth if self.config.max_depth > 1
-                                 else self.config.receiver_offset)
+        if self.setup.bistatic:
+            raise ParameterError(where, "receiver_offset", "None with a multi-channel radar "
+                                 "(its receivers are the radar's: Radar(receivers=...), "
+                                 "docs/interferometry.md)", self.config.receiver_offset)
+        if self.config.max_depth > 1 and radar.has_element_beams:
+            raise ParameterError(where, "max_depth", "1 with receive elements that have "
+                                 "their own beam (their multipath captures would need each "
+                                 "element's pattern: not traced yet; docs/interferometry.md)",
+                                 self.config.max_depth)
         transmitters, receivers = radar.channel_offsets()
         slots = radar.firing(np.arange(radar.transmitter_count))
         group = {(transmitters[c], tuple(slots[c])) for c in channels}

@@ -73,6 +73,11 @@ class ShapeTable:
         (:func:`mitsar.model.doublelobe.bistatic_lobe_tables`), flattened.
     backscatter_exponent, forward_exponent : mi.Float
         Per row, the lobe exponents ``α_B``, ``α_F``.
+    speckle_key : mi.UInt32
+        Per shape, the key of its ghosts' frozen speckle phases: a hash of the shape's place in
+        the scene and the trace's seed (:attr:`~mitsar.model.trace_options.TraceOptions.seed`),
+        so that the same scene and seed give the same ghosts on every load (the registry id
+        of a shape changes from one load to the next).
     """
 
     specular_field: Any
@@ -83,6 +88,7 @@ class ShapeTable:
     forward_weight: Any
     backscatter_exponent: Any
     forward_exponent: Any
+    speckle_key: Any
 
 
 @dataclass
@@ -107,13 +113,18 @@ def ray_arrays(rays: RaySet) -> tuple[RayArrays, Any]:
     return arrays, ids
 
 
-def shape_table(scene: Any, absorbers: tuple[Any, ...] = ()) -> ShapeTable:
-    """The :class:`ShapeTable` of a scene; the shapes in ``absorbers`` stop multipath rays."""
+def shape_table(scene: Any, absorbers: tuple[Any, ...] = (), seed: int = 0) -> ShapeTable:
+    """The :class:`ShapeTable` of a scene; the shapes in ``absorbers`` stop multipath rays;
+    ``seed`` keys the ghosts' speckle phases."""
     shapes = list(scene.shapes())
     ids = [int(dr.reinterpret_array(mi.UInt32, mi.ShapePtr(shape))[0]) for shape in shapes]
     stops = {int(dr.reinterpret_array(mi.UInt32, mi.ShapePtr(shape))[0]) for shape in absorbers}
     size = max(ids + [0]) + 1
     srow = np.zeros(size, dtype=np.uint32)
+    # the shape's place in the scene and the seed, mixed (splitmix-style odd multipliers)
+    key = np.zeros(size, dtype=np.uint32)
+    key[ids] = ((np.arange(1, len(ids) + 1, dtype=np.uint64) * 0x9E3779B1
+                 + (int(seed) & 0xFFFFFFFF) * 0x85EBCA77) & 0xFFFFFFFF).astype(np.uint32)
     specular: list[Any] = [None]
     gscale = np.zeros(size)
     grow = np.zeros(size, dtype=np.uint32)
@@ -139,7 +150,8 @@ def shape_table(scene: Any, absorbers: tuple[Any, ...] = ()) -> ShapeTable:
     table = ShapeTable(specular_field=f32(rho.ravel()), specular_row=mi.UInt32(srow),
                        ghost_scale=f32(gscale), ghost_row=mi.UInt32(grow),
                        backscatter_weight=f32(wb.ravel()), forward_weight=f32(wf.ravel()),
-                       backscatter_exponent=f32(ab), forward_exponent=f32(af))
+                       backscatter_exponent=f32(ab), forward_exponent=f32(af),
+                       speckle_key=mi.UInt32(key))
     dr.make_opaque(*(getattr(table, field.name) for field in fields(table)))
     return table
 
@@ -156,15 +168,18 @@ def _field_pattern(direction: Any, az: Any, el: Any, constants: Constants) -> An
                          constants.f32("beta_el"), DRJIT_OPS)
 
 
-def _order_base(constants: Constants, sweep: Any, order: int) -> Any:
-    return sweep * constants["sweep_stride"] + constants["bins"] * order
+def _order_base(constants: Constants, sweep: Any, order: int, receiver: int = 0) -> Any:
+    """Index of bin 0 of the histogram row (sweep, receiver, order)."""
+    base = sweep * constants["sweep_stride"] + constants["bins"] * order
+    return base if receiver == 0 else base + receiver * constants["receiver_stride"]
 
 
 def capture_deposit(constants: Constants, re: Any, im: Any, sweep_arrays: MultipathSweepArrays,
                     chosen: Any, s_all: Any, img_all: list, frame_all: tuple, field_all: Any,
-                    amp_tx_all: Any, weight_all: Any, order: int) -> None:
+                    amp_tx_all: Any, weight_all: Any, order: int, receiver: int = 0) -> None:
     """Deposit the captured lanes ``chosen``: image-method amplitude (capture-weighted), delay
-    ``L/c`` with ``L = |rx - img|`` in float64, Doppler of the image geometry."""
+    ``L/c`` with ``L = |rx - img|`` in float64, Doppler of the image geometry; into the rows
+    of ``receiver`` (its index in ``sweep_arrays.receivers``)."""
     f64, f32 = mi.Float64, mi.Float
     position, valid = padded_lanes(dr.width(chosen))  # the extra lanes deposit nothing
     if dr.width(position) != dr.width(chosen):
@@ -179,9 +194,9 @@ def capture_deposit(constants: Constants, re: Any, im: Any, sweep_arrays: Multip
 
     img = [gl(c, f64) for c in img_all]
     e0, e1, e2 = (mi.Vector3f(gl(e.x), gl(e.y), gl(e.z)) for e in frame_all)
-    receiver = sweep_arrays.receiver
-    wx, wy, wz = (gs(receiver[0], f64) - img[0], gs(receiver[1], f64) - img[1],
-                  gs(receiver[2], f64) - img[2])
+    position = sweep_arrays.receivers[receiver]
+    wx, wy, wz = (gs(position[0], f64) - img[0], gs(position[1], f64) - img[1],
+                  gs(position[2], f64) - img[2])
     length = dr.sqrt(wx * wx + wy * wy + wz * wz)
     inv = 1.0 / length
     wn = mi.Vector3f(f32(wx * inv), f32(wy * inv), f32(wz * inv))
@@ -194,19 +209,20 @@ def capture_deposit(constants: Constants, re: Any, im: Any, sweep_arrays: Multip
     v_img = e0 * gs(va[0]) + e1 * gs(va[1]) + e2 * gs(va[2])
     velocity = sweep_arrays.velocity
     rate = dr.dot(wn, mi.Vector3f(gs(velocity[0]), gs(velocity[1]), gs(velocity[2])) - v_img)
-    deposit(constants, re, im, _order_base(constants, s, order), 0.5 * length, 0.5 * f64(rate),
-            amp, None, dr.full(mi.Bool, True, dr.width(chosen)) & valid)
+    deposit(constants, re, im, _order_base(constants, s, order, receiver), 0.5 * length,
+            0.5 * f64(rate), amp, None, dr.full(mi.Bool, True, dr.width(chosen)) & valid)
 
 
 def ghost_deposit(scene: Any, table: ShapeTable, constants: Constants, re: Any, im: Any, s: Any,
                   order: int, si: Any, sid: Any, n: Any, d: Any, hit: Any, img: list,
                   rx32: Any, v_rx: Any, v_img: Any, g_axes: tuple, field: Any, amp_tx: Any,
-                  z: Any, planar: bool) -> None:
+                  z: Any, planar: bool, receiver: int = 0) -> None:
     """Bistatic double-lobe scattering of the hits back to the receiver (ghosts).
 
     ``σ⁰ = cos θ_i [W_B lobe(ψ_B)^α_B + W_F lobe(ψ_F)^α_F]`` from the material's tables, over
     the ray tube's area (solid angle ``dp dq / z`` in 3D, ``dq x slab`` in 2D), with a speckle
-    phase frozen per half-wavelength cell of the hit point.
+    phase frozen per half-wavelength cell of the hit point. ``rx32`` is receiver ``receiver``'s
+    position (its rows of the histogram); its own shadow ray.
     """
     f64, f32, u32 = mi.Float64, mi.Float, mi.UInt32
     g_az, g_el, g_b = g_axes
@@ -246,9 +262,10 @@ def ghost_deposit(scene: Any, table: ShapeTable, constants: Constants, re: Any, 
     rate = dr.dot(ks, v_rx) - dr.dot(d, v_img)
     cell = constants.f32("ghost_cell_inv")
     ix, iy, iz = (u32(mi.Int32(dr.floor(c * cell))) for c in (h.x, h.y, h.z))
-    speckle = mi.sample_tea_float32((ix * 73856093) ^ (iy * 19349663), (iz * 83492791) ^ sid)
-    deposit(constants, re, im, _order_base(constants, s, order), 0.5 * length, 0.5 * f64(rate),
-            f32(scale) * x_amp, speckle, ok)
+    key = dr.gather(u32, table.speckle_key, sid)
+    speckle = mi.sample_tea_float32((ix * 73856093) ^ (iy * 19349663), (iz * 83492791) ^ key)
+    deposit(constants, re, im, _order_base(constants, s, order, receiver), 0.5 * length,
+            0.5 * f64(rate), f32(scale) * x_amp, speckle, ok)
 
 
 def launch(scene: Any, table: ShapeTable, rays: RayArrays, sweep_arrays: MultipathSweepArrays,
@@ -280,7 +297,9 @@ def launch(scene: Any, table: ShapeTable, rays: RayArrays, sweep_arrays: Multipa
                             constants)
     dr.eval(amp_tx, s, p, q, z)
     g_axes = tuple(_column(sweep_arrays.receiver_frame, j, gs) for j in range(3))
-    rx32 = mi.Point3f(*(gs(c) for c in sweep_arrays.receiver32))
+    # every receiver of the transmitter: captures and ghosts of the same rays, each into its
+    # own rows (docs/interferometry.md §8)
+    receivers32 = [mi.Point3f(*(gs(c) for c in rx)) for rx in sweep_arrays.receivers32]
     v_rx = mi.Vector3f(*(gs(c) for c in sweep_arrays.velocity))
     va0, va1, va2 = (gs(c) for c in sweep_arrays.ray_velocity)
     img = [gs(c, f64) for c in sweep_arrays.transmitter]
@@ -296,26 +315,27 @@ def launch(scene: Any, table: ShapeTable, rays: RayArrays, sweep_arrays: Multipa
         t_hit = dr.select(hit, si.t, dr.inf)
         v_img = e0 * va0 + e1 * va1 + e2 * va2  # image velocity M v_tx
         weight = dr.zeros(f32, lanes)
-        if kk >= 1:
+        for k, rx32 in enumerate(receivers32 if kk >= 1 else ()):
             # 1. Capture test in float32 on every lane: the receiver's launch coordinates seen
             # from the image; the float64 deposit runs on the few captured lanes only.
             wn = dr.normalize(rx32 - mi.Point3f(f32(img[0]), f32(img[1]), f32(img[2])))
             t_r = dr.dot(rx32 - o, d)
             ok = (alive & (dr.dot(wn, e2) > 0.0) & (t_r > 0.0) & (t_r < t_hit)
                   & (dr.dot(wn, g_axes[2]) < 0.0))
-            weight = (capture_weight(dr.dot(wn, e0) - p, constants.f32("dp"), capture,
-                                     DRJIT_OPS)
-                      * capture_weight(dr.dot(wn, e1) - q, constants.f32("dq"), capture,
-                                       DRJIT_OPS))
-            ok &= weight > 0.0
-            weight = dr.select(ok, weight, 0.0)
-            dr.eval(weight)
-            chosen = dr.compress(weight > 0.0)
+            captured = (capture_weight(dr.dot(wn, e0) - p, constants.f32("dp"), capture,
+                                       DRJIT_OPS)
+                        * capture_weight(dr.dot(wn, e1) - q, constants.f32("dq"), capture,
+                                         DRJIT_OPS))
+            ok &= captured > 0.0
+            captured = dr.select(ok, captured, 0.0)
+            dr.eval(captured)
+            chosen = dr.compress(captured > 0.0)
             if dr.width(chosen):
                 capture_deposit(constants, re, im, sweep_arrays, chosen, s, img, (e0, e1, e2),
-                                field, amp_tx,
-                                weight, kk)
-            counts = counts + dr.select(ok, 65536, 0)
+                                field, amp_tx, captured, kk, k)
+            if k == 0:  # the path log and the work counters follow the first receiver
+                weight = captured
+                counts = counts + dr.select(ok, 65536, 0)
         if log is not None:  # the traced lanes, not the padding
             log.append({"origin": np.array(o, dtype=np.float64).T[:traced],
                         "direction": np.array(d, dtype=np.float64).T[:traced],
@@ -333,11 +353,10 @@ def launch(scene: Any, table: ShapeTable, rays: RayArrays, sweep_arrays: Multipa
             break
         sid = dr.select(hit, dr.reinterpret_array(u32, si.shape), 0)
         n = dr.normalize(si.n)
-        if ghosts and kk >= 1:
-            # 2. Ghosts: bistatic scattering of the hit back to the receiver.
+        for k, rx32 in enumerate(receivers32 if ghosts and kk >= 1 else ()):
+            # 2. Ghosts: bistatic scattering of the hit back to each receiver.
             ghost_deposit(scene, table, constants, re, im, s, kk, si, sid, n, d, hit, img, rx32,
-                          v_rx,
-                          v_img, g_axes, field, amp_tx, z, planar)
+                          v_rx, v_img, g_axes, field, amp_tx, z, planar, k)
         if last:
             dr.eval(counts)
             break

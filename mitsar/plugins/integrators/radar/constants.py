@@ -365,8 +365,10 @@ class MultipathSweepArrays:
     ----------
     transmitter, transmitter32 : Vector
         Transmitter position at mid-sweep [m], Float64 and Float32.
-    receiver, receiver32 : Vector
-        Receiver position [m], Float64 and Float32.
+    receivers, receivers32 : tuple of Vector
+        Each receiver's position [m], Float64 and Float32: the bistatic receiver (or the
+        transmitter) of a single-channel trace, or every receiver of the transmitter traced
+        (:attr:`~.setup.TraceSetup.channel_receivers`, histogram rows ``k receiver_stride``).
     velocity : Vector
         Platform velocity [m/s] (Float32).
     ray_velocity : Vector
@@ -377,8 +379,8 @@ class MultipathSweepArrays:
 
     transmitter: Vector
     transmitter32: Vector
-    receiver: Vector
-    receiver32: Vector
+    receivers: tuple[Vector, ...]
+    receivers32: tuple[Vector, ...]
     velocity: Vector
     ray_velocity: Vector
     antenna_frame: Frame
@@ -525,13 +527,15 @@ def multipath_sweep_arrays(geometry: SweepGeometry, frames: NDArray, setup: Any,
     (:class:`MultipathSweepArrays`; ``setup``: the :class:`~.setup.TraceSetup`)."""
     padded = _padded(chosen)
     pos, vel = geometry.position[padded], geometry.velocity[padded]
-    rx = pos + setup.receiver_offset
+    receivers = [pos + setup.receiver_offset if rx is None else rx[padded]
+                 for rx in (setup.channel_receivers or (None,))]
     ray_frames = setup.ray_frames[padded]
     va = np.einsum("sij,si->sj", ray_frames, vel)
     return MultipathSweepArrays(
         transmitter=_upload_vector(mi.Float64, pos),
         transmitter32=_upload_vector(mi.Float, pos),
-        receiver=_upload_vector(mi.Float64, rx), receiver32=_upload_vector(mi.Float, rx),
+        receivers=tuple(_upload_vector(mi.Float64, rx) for rx in receivers),
+        receivers32=tuple(_upload_vector(mi.Float, rx) for rx in receivers),
         velocity=_upload_vector(mi.Float, vel), ray_velocity=_upload_vector(mi.Float, va),
         antenna_frame=_upload_frames(frames[padded]), ray_frame=_upload_frames(ray_frames),
         receiver_frame=_upload_frames(setup.receiver_frames[padded]))

@@ -217,7 +217,7 @@ def _make_class() -> type:
                                               orders, rvp, normalized, max_speed, setup.planar,
                                               receivers)
             if multipath:
-                table = bounce.shape_table(scene, setup.absorbers)
+                table = bounce.shape_table(scene, setup.absorbers, config.seed)
                 rays, ray_ids = bounce.ray_arrays(setup.rays)
                 ray_constants = multipath_constants(radar, config, constants, setup.rays)
             bar = tqdm(total=len(sweeps), disable=not progress, desc="trace", unit="sweep")
@@ -272,7 +272,7 @@ def _make_class() -> type:
             re = dr.zeros(mi.Float64, config.max_depth * 2)
             im = dr.zeros(mi.Float64, config.max_depth * 2)
             log: list = []
-            bounce.launch(scene, bounce.shape_table(scene, setup.absorbers), ray_grid,
+            bounce.launch(scene, bounce.shape_table(scene, setup.absorbers, config.seed), ray_grid,
                           sweep_arrays, ray_constants, mi.UInt32(rays), len(rays), re, im,
                           config.max_depth, config.capture, False, setup.planar, log=log)
             return {key: np.stack([entry[key] for entry in log], axis=1) for key in log[0]}
