@@ -196,10 +196,18 @@ def test_one_trace_serves_every_receiver_of_a_transmitter():
 
 
 def test_traced_channels_refuse_what_is_not_traced_per_channel():
+    """Multipath of channels is traced (tests/test_multipath.py); refused: the single-channel
+    bistatic option (the radar's receivers are its channels) and multipath through receive
+    elements with a beam of their own."""
     radar = mitsar.Radar(receivers=[(0, 0, 0), (0, 0, BASELINE)])
     track = mitsar.Trajectory.linear([14.8, 1.4, 4.5], [0.5, 0.0, 0.0], 0.08)
+    with pytest.raises(ParameterError, match="receiver_offset"):
+        mitsar.simulate_scene(radar, track, SCENE_LOOK, "point_target", max_depth=2,
+                              backscatter=False, receiver_offset=[0.0, 0.0, 0.1])
+    beams = mitsar.Radar(receivers=[(0, 0, 0), {"position": (0, 0, BASELINE),
+                                                "off_nadir_deg": 50.0}])
     with pytest.raises(ParameterError, match="max_depth"):
-        mitsar.simulate_scene(radar, track, SCENE_LOOK, "point_target", max_depth=2)
+        mitsar.simulate_scene(beams, track, SCENE_LOOK, "point_target", max_depth=2)
 
 
 # --- heights through the whole chain ------------------------------------------------------------
