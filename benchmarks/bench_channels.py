@@ -90,21 +90,22 @@ def _kernels(run: Callable[[], Any]) -> tuple[float, float, int]:
             max((entry.get("operation_count", 0) for entry in block), default=0))
 
 
-def _traced(radars: dict[str, Any], track: Any, scene: Any, rounds: int
-            ) -> dict[str, dict[str, float]]:
+def _traced(radars: dict[str, Any], track: Any, scene: Any, rounds: int,
+            options: dict[str, Any]) -> dict[str, dict[str, float]]:
     """The tracer's cases measured in turn, round by round (a load change hits all of them),
-    best of ``rounds``: wall, all kernels, block kernels [s] and the block kernel's IR size."""
+    best of ``rounds``: wall, all kernels, block kernels [s] and the block kernel's IR size
+    (``options``: trace options, e.g. ``max_depth``)."""
     best = {name: {"trace": math.inf, "tracer kernels": math.inf, "block kernel": math.inf,
                    "block ops": 0.0} for name in radars}
     for radar in radars.values():  # warm: scatterers and kernels cached
-        mitsar.simulate_scene(radar, track, LOOK, scene)
+        mitsar.simulate_scene(radar, track, LOOK, scene, **options)
     for _ in range(rounds):
         for name, radar in radars.items():
             start = time.perf_counter()
-            mitsar.simulate_scene(radar, track, LOOK, scene)
+            mitsar.simulate_scene(radar, track, LOOK, scene, **options)
             wall = time.perf_counter() - start
-            kernels, block, ops = _kernels(lambda r=radar: mitsar.simulate_scene(r, track, LOOK,
-                                                                                 scene))
+            kernels, block, ops = _kernels(lambda r=radar: mitsar.simulate_scene(
+                r, track, LOOK, scene, **options))
             entry = best[name]
             entry.update(trace=min(entry["trace"], wall),
                          **{"tracer kernels": min(entry["tracer kernels"], kernels),
@@ -158,6 +159,10 @@ def main() -> None:
                         help="only count the deposits per-receiver shadow rays would change")
     parser.add_argument("--density", type=float, default=400.0,
                         help="scatterers per m^2 of the --visibility count")
+    parser.add_argument("--max-depth", type=int, default=1,
+                        help="trace multipath too (hits per ray; the rays are shared by the "
+                             "receivers, each its own captures)")
+    parser.add_argument("--ghosts", action="store_true", help="with --max-depth > 1")
     args = parser.parse_args()
     warnings.simplefilter("ignore")
     radars = {"1 receiver": mitsar.Radar(), "2 receivers": mitsar.Radar(receivers=RECEIVERS)}
@@ -175,7 +180,8 @@ def main() -> None:
     grid = mitsar.grid.SlantGrid(along_track=[-0.2, 0.31, 0.002],
                                  slant_range=[7.3, 8.32, 0.004])
     rows = []
-    walls = _traced(radars, track, scene, args.rounds)
+    options = {"max_depth": args.max_depth, "ghosts": args.ghosts}
+    walls = _traced(radars, track, scene, args.rounds, options)
     for name, radar in radars.items():
         channels = radar.channel_count
         traced_wall = walls[name]["trace"]
@@ -187,7 +193,8 @@ def main() -> None:
         rows.append((name, channels * args.sweeps / traced_wall,
                      channels * args.sweeps / analytic_wall,
                      channels * pixels * raw.sizes["sweep"] / focus_wall / 1e6))
-    print(f"scene {args.scene}, {args.sweeps} sweeps, best of {args.rounds}")
+    print(f"scene {args.scene}, {args.sweeps} sweeps, best of {args.rounds}, max_depth "
+          f"{args.max_depth}{' with ghosts' if args.ghosts else ''}")
     print(f"{'case':<14}{'trace ch*sweeps/s':>20}{'analytic ch*sweeps/s':>23}"
           f"{'BPA M ch*pixel-pulses/s':>26}")
     for name, traced, analytic, bpa in rows:

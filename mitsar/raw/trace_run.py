@@ -289,16 +289,18 @@ class TraceRun:
         self.setup = dataclasses.replace(self.setup, absorbers=facets.shapes)
         return facets
 
-    def chunks(self) -> Iterator[tuple[NDArray, NDArray]]:
+    def chunks(self, reuse: bool = False) -> Iterator[tuple[NDArray, NDArray]]:
         """(sweep indices, histograms (sweeps, orders, bins)) chunk by chunk: the tracer's,
         plus the physical-optics echoes of the same sweeps (one path for :func:`trace` and
         :func:`simulate_scene`). Deterministic runs trace on one Dr.Jit thread
-        (:func:`mitsar.plugins.threads.deterministic_threads`)."""
+        (:func:`mitsar.plugins.threads.deterministic_threads`). ``reuse``: the histograms of
+        every chunk in one array, overwritten by the next (the integrator's
+        ``trace_histograms(reuse=)``), for a caller done with a chunk before the next."""
         with deterministic_threads(self.deterministic):
             yield from self._chunks(self.config.rvp, self.config.normalized,
-                                    self.config.progress)
+                                    self.config.progress, reuse)
 
-    def _chunks(self, rvp: bool, normalized: bool, progress: bool
+    def _chunks(self, rvp: bool, normalized: bool, progress: bool, reuse: bool = False
                 ) -> Iterator[tuple[NDArray, NDArray]]:
         if self.motion.moving:
             source = self._moving_chunks(rvp, normalized, progress)
@@ -307,7 +309,7 @@ class TraceRun:
                 self.scene, self.trace_geometry, self.radar, self.frames, self.scatterers,
                 self.grid,
                 sweeps=self.sweeps, config=self.config, rvp=rvp, normalized=normalized,
-                progress=progress, setup=self.setup, backscatter=self.backscatter)
+                progress=progress, setup=self.setup, backscatter=self.backscatter, reuse=reuse)
         for chosen, hist in source:
             if self.facet_echoes is None:
                 yield chosen, hist

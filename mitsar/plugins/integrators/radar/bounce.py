@@ -315,7 +315,8 @@ def launch(scene: Any, table: ShapeTable, rays: RayArrays, sweep_arrays: Multipa
         t_hit = dr.select(hit, si.t, dr.inf)
         v_img = e0 * va0 + e1 * va1 + e2 * va2  # image velocity M v_tx
         weight = dr.zeros(f32, lanes)
-        for k, rx32 in enumerate(receivers32 if kk >= 1 else ()):
+        captures = []
+        for rx32 in receivers32 if kk >= 1 else ():
             # 1. Capture test in float32 on every lane: the receiver's launch coordinates seen
             # from the image; the float64 deposit runs on the few captured lanes only.
             wn = dr.normalize(rx32 - mi.Point3f(f32(img[0]), f32(img[1]), f32(img[2])))
@@ -326,16 +327,17 @@ def launch(scene: Any, table: ShapeTable, rays: RayArrays, sweep_arrays: Multipa
                                        DRJIT_OPS)
                         * capture_weight(dr.dot(wn, e1) - q, constants.f32("dq"), capture,
                                          DRJIT_OPS))
-            ok &= captured > 0.0
-            captured = dr.select(ok, captured, 0.0)
-            dr.eval(captured)
-            chosen = dr.compress(captured > 0.0)
-            if dr.width(chosen):
-                capture_deposit(constants, re, im, sweep_arrays, chosen, s, img, (e0, e1, e2),
-                                field, amp_tx, captured, kk, k)
-            if k == 0:  # the path log and the work counters follow the first receiver
-                weight = captured
-                counts = counts + dr.select(ok, 65536, 0)
+            captures.append(dr.select(ok & (captured > 0.0), captured, 0.0))
+        if captures:
+            dr.eval(*captures)  # every receiver's test in one pass over the lanes
+            for k, captured in enumerate(captures):
+                chosen = dr.compress(captured > 0.0)
+                if dr.width(chosen):
+                    capture_deposit(constants, re, im, sweep_arrays, chosen, s, img,
+                                    (e0, e1, e2), field, amp_tx, captured, kk, k)
+            # the path log and the work counters follow the first receiver
+            weight = captures[0]
+            counts = counts + dr.select(weight > 0.0, 65536, 0)
         if log is not None:  # the traced lanes, not the padding
             log.append({"origin": np.array(o, dtype=np.float64).T[:traced],
                         "direction": np.array(d, dtype=np.float64).T[:traced],
