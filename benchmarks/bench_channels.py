@@ -16,6 +16,9 @@ best of ``--rounds``:
 3. back-projection of every channel onto one grid (:func:`mitsar.focus`, 256^2 pixels):
    channel-pixel-pulses per second and the ratio.
 
+``--max-depth 3`` (and ``--ghosts``) traces multipath too: the shoot-and-bounce rays are
+shared by the receivers, each with its own capture tests and deposits.
+
 ``--visibility`` counts instead the deposits whose shadow ray from a receiver 5 cm above the
 transmitter would disagree with the transmitter's (the tracer shares the transmitter's).
 
@@ -26,11 +29,18 @@ one receiver 1788 channels x sweeps/s (143 ms), two 2290 (224 ms): the tracer's 
 3.1x, BPA 2.3x.
 After the block-buffered synthesis (quiet machine, load 0.2-0.8, ``--rounds 9``): one
 receiver 131 ms, two 185 ms: 1.41x; kernels 1.55x; block kernel 1.75x; analytic 2.2x.
-The issue's < 1.3x is not met (docs/interferometry.md §8 "Cost" says what is left).
+The issue's < 1.3x is not met for direct backscatter (docs/interferometry.md §8 "Cost" says
+what is left).
 27 November, after the shared cubic lookups of the monostatic BPA (mitsar.focus.bp_tiled step
 5), ``--rounds 7``, load ~1 (a reviewer session running): tracer 1.52x (158 -> 239 ms), BPA
 2.69x: the first channel (monostatic) takes the pixel groups with shared lookups, the second
 (bistatic: half its path per pixel) still the exact kernel.
+27 November (second session), after the faster reception check (46 -> 20 ms per run, shared),
+the bistatic pixel groups (BPA) and the direct int64 rounding of the packets, quiet machine,
+``--rounds 9``: one receiver 108 ms, two 153 ms: 1.42x (kernels 1.47x, block kernel 1.71x:
+58 -> 86 ms and 35 -> 59 ms), BPA 2.0x (was 2.4-2.8x); an alternated best of 21 of the
+walls: 1.40x (median 1.42x). With ``--max-depth 3``: one receiver 321 ms, two 400 ms: 1.25x
+(kernels 1.17x: 242 -> 282 ms); alternated best of 21: 1.22x (median 1.23x).
 ``--visibility``: ``control_volume`` 0 of 851,855 in-beam deposits; the room test's 0.2 m box
 on a floor 154 of 406,278 (0.038 %).
 
