@@ -35,6 +35,21 @@ from scipy import ndimage
 __all__ = ["cell_pixels", "chip_pixels", "chip_reach", "select_scatterers"]
 
 
+def _cell_geometry(image: xr.Dataset) -> tuple[list[float], float, float, NDArray, NDArray] | None:
+    """The pixel spacing of the image's two dims [m], ``range_resolution`` and
+    ``azimuth_resolution`` [m] and the ``range_axis`` / ``azimuth_axis`` unit vectors in those
+    dims (:mod:`mitsar.focus.grid`), or None when the product does not carry them."""
+    dims = image["image"].dims[-2:]
+    try:
+        spacing = [abs(float(image[d].values[1] - image[d].values[0])) for d in dims]
+        return (spacing, float(image.attrs["range_resolution"]),
+                float(image.attrs["azimuth_resolution"]),
+                np.asarray(image.attrs["range_axis"], dtype=float)[:2],
+                np.asarray(image.attrs["azimuth_axis"], dtype=float)[:2])
+    except (KeyError, IndexError, TypeError, ValueError):
+        return None
+
+
 def cell_pixels(image: xr.Dataset) -> tuple[float, float]:
     """Pixels per resolution cell along the image's two dimensions.
 
@@ -43,15 +58,10 @@ def cell_pixels(image: xr.Dataset) -> tuple[float, float]:
     i a cell spans ``sqrt((rho_r a_r,i)^2 + (rho_a a_a,i)^2)``; the pixel spacing is that of
     the dim's coordinate. A product without them gives one pixel a cell.
     """
-    dims = image["image"].dims[-2:]
-    try:
-        spacing = [abs(float(image[d].values[1] - image[d].values[0])) for d in dims]
-        rho_r = float(image.attrs["range_resolution"])
-        rho_a = float(image.attrs["azimuth_resolution"])
-        a_r = np.asarray(image.attrs["range_axis"], dtype=float)[:2]
-        a_a = np.asarray(image.attrs["azimuth_axis"], dtype=float)[:2]
-    except (KeyError, IndexError, TypeError, ValueError):
+    geometry = _cell_geometry(image)
+    if geometry is None:
         return 1.0, 1.0
+    spacing, rho_r, rho_a, a_r, a_a = geometry
     cells = np.hypot(rho_r * a_r, rho_a * a_a)
     return tuple(float(max(c / s, 1.0)) if s > 0 else 1.0
                  for c, s in zip(cells, spacing, strict=True))
@@ -120,16 +130,11 @@ def chip_reach(image: xr.Dataset, azimuth_cells: float, range_cells: float
     A phase error per sweep does not change the range response (docs/autofocus.md, error
     model), so chips that judge a correction need a range extent of about a cell only.
     """
-    dims = image["image"].dims[-2:]
-    try:
-        spacing = [abs(float(image[d].values[1] - image[d].values[0])) for d in dims]
-        rho_r = float(image.attrs["range_resolution"])
-        rho_a = float(image.attrs["azimuth_resolution"])
-        a_r = np.abs(np.asarray(image.attrs["range_axis"], dtype=float)[:2])
-        a_a = np.abs(np.asarray(image.attrs["azimuth_axis"], dtype=float)[:2])
-    except (KeyError, IndexError, TypeError, ValueError):
+    geometry = _cell_geometry(image)
+    if geometry is None:
         return None
-    reach = azimuth_cells * rho_a * a_a + range_cells * rho_r * a_r
+    spacing, rho_r, rho_a, a_r, a_a = geometry
+    reach = azimuth_cells * rho_a * np.abs(a_a) + range_cells * rho_r * np.abs(a_r)
     return tuple(float(r / s) if s > 0 else 0.0 for r, s in zip(reach, spacing, strict=True))
 
 
