@@ -166,10 +166,8 @@ def receiver_offsets(o0: list[Any], receiver_o0: list[Any], step: list[Any],
         rate = 0.5 * (sum(a * v for a, v in zip(o, velocity, strict=True)) / r
                       - sum(a * v for a, v in zip(o_rx, velocity, strict=True)) / r_rx)
         bins.append((half_change + doppler * rate) * constants["inv_step"])
-        phase.append(hg.deposit_cycles((r + half_change) * (2.0 / SPEED_OF_LIGHT), constants,
-                                       constants["rvp"])
-                     - hg.deposit_cycles(r * (2.0 / SPEED_OF_LIGHT), constants,
-                                         constants["rvp"]))
+        # the exact change of the deposit phase (not a difference of two ~2e4-cycle values)
+        phase.append(hg.deposit_cycles_change(half_change, r, constants, constants["rvp"]))
     turns = dr.round(phase[len(phase) // 2])  # whole turns dropped: |values| ~ 1 cycle
     phase = [value - turns for value in phase]
     return SimpleNamespace(
