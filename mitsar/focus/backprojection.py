@@ -264,10 +264,11 @@ def backproject_numpy(profile: NDArray, frequency: NDArray, radar: Radar, pixels
         Sum of the weights (see :func:`mitsar.focus.aperture.normalise_image`).
     """
     slant_range, sine, delay_rate = doppler_geometry(pixels, positions, velocities)
+    path = slant_range   # the "range" looked up: half the exact path of a bistatic channel
     if receivers is not None:
-        slant_range = half_path(slant_range, np.linalg.norm(
-            pixels[None] - receivers[:, None], axis=-1))
-    delay = 2.0 * slant_range / SPEED_OF_LIGHT
+        path = half_path(slant_range, np.linalg.norm(pixels[None] - receivers[:, None],
+                                                     axis=-1))
+    delay = 2.0 * path / SPEED_OF_LIGHT
     beat = beat_frequency(delay, delay_rate if motion_correction else 0.0, radar.chirp_rate,
                           radar.carrier_frequency)
     offset = sine - centroid_sine[:, None]

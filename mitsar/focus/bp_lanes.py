@@ -81,7 +81,8 @@ def _nearest_range(centre: NDArray, positions: NDArray) -> NDArray:
 
 
 def lanes_of(pixels: NDArray, row_length: int | None, size: int, step: NDArray | None,
-           positions: NDArray, limit: float) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+           positions: NDArray, limit: float, receivers: NDArray | None = None
+           ) -> tuple[NDArray, NDArray, NDArray, NDArray]:
     """Lane indices (L, G), centres (L, 3), pixel offsets (L, G, 3) and the predicted range
     error ``h^4 / (2 r^3)`` [m] of every lane (inf where ``r < 4 h``), eq. (1) of
     :mod:`mitsar.focus.bp_tiled`.
@@ -89,7 +90,9 @@ def lanes_of(pixels: NDArray, row_length: int | None, size: int, step: NDArray |
     With a row ``step`` the centre is the middle of the lane's G slots, so that slot g sits at
     ``c + (g - (G - 1) / 2) A`` (a padded slot past the row's end too, discarded later);
     otherwise it is the mean of the lane's pixels. ``limit`` [m]: where one bound for all the
-    lanes stays below it, that bound is returned for every lane.
+    lanes stays below it, that bound is returned for every lane. ``receivers``: a bistatic
+    channel's receive phase centres (S, 3), a track of their own: ``r`` is then the nearer of
+    the two tracks' (step 6 of :mod:`mitsar.focus.bp_tiled`).
     """
     groups = lane_layout(len(pixels), row_length, size)
     if step is not None:
@@ -109,10 +112,13 @@ def lanes_of(pixels: NDArray, row_length: int | None, size: int, step: NDArray |
     widest = float(reach.max(initial=0.0))
     low, high = bounding_box(centre)
     low, high = low - widest, high + widest
-    r = np.linalg.norm(positions - np.clip(positions, low, high), axis=-1).min() - widest
+    tracks = [positions] if receivers is None else [positions, receivers]
+    r = min(nearest_range(track, low, high) for track in tracks) - widest
     if r > 4 * widest and widest ** 4 / (2 * r ** 3) <= limit:
         return groups, centre, offsets, np.full(len(groups), widest ** 4 / (2 * r ** 3))
-    r = _nearest_range(centre, positions) - reach   # any pixel-to-antenna distance exceeds it
+    # any pixel-to-antenna distance exceeds it (each track on its own: _nearest_range's slack
+    # is half the longest step between its samples)
+    r = np.min([_nearest_range(centre, track) for track in tracks], axis=0) - reach
     error = np.where(r > 4 * reach, reach ** 4 / (2 * np.maximum(r, 1e-9) ** 3), np.inf)
     return groups, centre, offsets, error
 

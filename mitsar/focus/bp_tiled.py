@@ -246,8 +246,8 @@ def backproject_tiled(profile: NDArray, frequency: NDArray, radar: Radar, pixels
                         np.concatenate([velocities, velocities])))
     sizes = [s for s in LANE_SIZES if row_length is None or s <= row_length] or [LANE_SIZES[-1]]
     for size in sizes:
-        groups, centre, offsets, error = lanes_of(pixels, row_length, size, step, centres,
-                                                PHASE_LIMIT / top_wavenumber)
+        groups, centre, offsets, error = lanes_of(pixels, row_length, size, step, positions,
+                                                PHASE_LIMIT / top_wavenumber, receivers)
         good = top_wavenumber * error <= PHASE_LIMIT
         if good.all():
             break

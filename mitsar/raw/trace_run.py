@@ -182,9 +182,13 @@ class TraceRun:
                         for offset in (*radar.channel_offsets()[0], *radar.channel_offsets()[1]))
             low, high = low - reach, high + reach
         if self.config.max_depth > 1:
+            # the phase centres' reach from the track point (any attitude): the channels', or
+            # the bistatic receiver's offset
+            offset = (self.setup.receiver_offset if self.channels is None
+                      else np.full(3, reach))
             low, high = _multipath_limits(self.scene, self.geometry.position, low, high,
                                           radar, trajectory.max_speed(), self.config.max_depth,
-                                          self.setup.receiver_offset)
+                                          offset)
         if facets is not None:
             low, high = _facet_limits(facets.triangles, self.geometry.position, low, high,
                                       radar, trajectory.max_speed() + self.motion.max_speed())

@@ -39,8 +39,10 @@ def direction_sines(directions: ArrayLike, frame: ArrayLike) -> tuple[NDArray, N
     directions = np.asarray(directions, dtype=float)
     frame = np.asarray(frame, dtype=float)
     # optimize: a batched matrix product (0.5 ms for 64 x 4096 directions against 18 ms for
-    # einsum's own loop over a broadcast frame)
-    local = np.einsum("...ji,...j->...i", frame, directions, optimize=True)
+    # einsum's own loop over a broadcast frame); not for a few directions, where planning the
+    # product costs more (~13 us) than the loop
+    local = np.einsum("...ji,...j->...i", frame, directions,
+                      optimize=bool(directions.size > 3 * 4096))
     return local[..., 0], local[..., 1], local[..., 2]
 
 

@@ -71,7 +71,13 @@ def direct_rounding() -> bool:
         return False
     if platform.machine().lower() not in ("x86_64", "amd64", "i386", "i686"):
         return True
-    features = getattr(np, "_core", np)._multiarray_umath.__cpu_features__
+    try:  # NumPy >= 2 (numpy._core), else 1.26 (numpy.core)
+        from numpy._core._multiarray_umath import __cpu_features__ as features
+    except ImportError:
+        try:
+            from numpy.core._multiarray_umath import __cpu_features__ as features
+        except ImportError:   # no dispatch table: keep the portable magic number
+            return False
     return bool(features.get("AVX512DQ"))
 
 
