@@ -55,7 +55,8 @@ class Reception:
     in_band : ndarray of float, shape (n,)
         Fraction of the sweeps whose slant range is at most ``radar.max_range``.
     peak_pattern : ndarray, shape (n,)
-        Largest two-way power pattern over the sweeps (1 on boresight, 0 behind).
+        Largest two-way power pattern over the sweeps (1 on boresight, 0 behind); NaN where
+        not asked for (:func:`reception` with ``pattern=False``).
     main_lobe : ndarray of bool, shape (n,)
         In the main lobe (``|u_az| < beta_az``, ``|u_el| < beta_el``, in front) in some sweep.
     near_field : ndarray of bool, shape (n,)
@@ -74,8 +75,8 @@ class Reception:
 
 
 def reception(radar: Radar, positions: ArrayLike, antenna: ArrayLike, frames: ArrayLike,
-              velocities: ArrayLike | None = None, times: ArrayLike | None = None
-              ) -> Reception:
+              velocities: ArrayLike | None = None, times: ArrayLike | None = None,
+              pattern: bool = True) -> Reception:
     """Band, beam and near field of scatterers over a flight (module docstring).
 
     Parameters
@@ -89,6 +90,9 @@ def reception(radar: Radar, positions: ArrayLike, antenna: ArrayLike, frames: Ar
         Antenna-to-world rotations at mid-sweep.
     velocities : array_like, shape (n, 3), optional
         Scatterer velocities [m/s]; ``times`` [s] (sweeps,) are then the mid-sweep times.
+    pattern : bool
+        Evaluate the peak two-way pattern (False: ``peak_pattern`` is NaN; the surface check
+        of :func:`scene_reception_warnings` reads only the main lobe, band and near field).
 
     Returns
     -------
@@ -111,12 +115,13 @@ def reception(radar: Radar, positions: ArrayLike, antenna: ArrayLike, frames: Ar
     lobe = ((cos_b > 0.0) & (np.abs(u_az) < radar.azimuth_beamwidth)
             & (np.abs(u_el) < radar.elevation_beamwidth))
     # two_way_pattern's P^2 from the sines above (computed once)
-    pattern = one_way_pattern(u_az, u_el, radar.azimuth_beamwidth, radar.elevation_beamwidth,
-                              cos_b) ** 2
+    peak = (one_way_pattern(u_az, u_el, radar.azimuth_beamwidth, radar.elevation_beamwidth,
+                            cos_b).max(axis=0) ** 2 if pattern
+            else np.full(slant.shape[1:], np.nan))
     far = fraunhofer_distance(radar)
     return Reception(min_range=slant.min(axis=0), max_range=slant.max(axis=0),
                      in_band=np.mean(slant <= radar.max_range, axis=0),
-                     peak_pattern=pattern.max(axis=0), main_lobe=lobe.any(axis=0),
+                     peak_pattern=peak, main_lobe=lobe.any(axis=0),
                      near_field=(slant < far).any(axis=0), far_field_distance=far)
 
 
@@ -206,7 +211,7 @@ def scene_reception_warnings(radar: Radar, positions: ArrayLike, point_targets: 
     if surface:
         sample = positions[:surface][::max(1, surface // SCENE_SAMPLE)]
         seen = reception(radar, sample, antenna[::max(1, len(antenna) // 64)],
-                         np.asarray(frames)[::max(1, len(antenna) // 64)])
+                         np.asarray(frames)[::max(1, len(antenna) // 64)], pattern=False)
         lit = seen.main_lobe
         if lit.any():
             beyond = lit & (seen.in_band < 1.0)

@@ -38,12 +38,13 @@ def direction_sines(directions: ArrayLike, frame: ArrayLike) -> tuple[NDArray, N
     """
     directions = np.asarray(directions, dtype=float)
     frame = np.asarray(frame, dtype=float)
-    # optimize: a batched matrix product (0.5 ms for 64 x 4096 directions against 18 ms for
-    # einsum's own loop over a broadcast frame); not for a few directions, where planning the
-    # product costs more (~13 us) than the loop
-    local = np.einsum("...ji,...j->...i", frame, directions,
-                      optimize=bool(directions.size > 3 * 4096))
-    return local[..., 0], local[..., 1], local[..., 2]
+    # d . column i = d_0 F_0i + d_1 F_1i + d_2 F_2i, elementwise: the bits of the einsum loop
+    # used before, whatever the array sizes (a chunked product equals the whole one), at a
+    # sixth of its time on a broadcast frame (3 against 18 ms for 64 x 4096 directions;
+    # einsum's BLAS path would be faster but its sums may depend on the sizes)
+    d = [directions[..., j] for j in range(3)]
+    return tuple(d[0] * frame[..., 0, i] + d[1] * frame[..., 1, i] + d[2] * frame[..., 2, i]
+                 for i in range(3))
 
 
 def field_pattern(u_az: Any, u_el: Any, beamwidth_az: Any, beamwidth_el: Any,
