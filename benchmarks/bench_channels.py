@@ -35,7 +35,7 @@ what is left).
 5), ``--rounds 7``, load ~1 (a reviewer session running): tracer 1.52x (158 -> 239 ms), BPA
 2.69x: the first channel (monostatic) takes the pixel groups with shared lookups, the second
 (bistatic: half its path per pixel) still the exact kernel.
-27 November (second session), after the faster reception check (46 -> 20 ms per run, shared),
+27 November (second session), after the faster reception check (46 -> 13 ms per run, shared),
 the bistatic pixel groups (BPA) and the direct int64 rounding of the packets, quiet machine,
 ``--rounds 9``: one receiver 108 ms, two 153 ms: 1.42x (kernels 1.47x, block kernel 1.71x:
 58 -> 86 ms and 35 -> 59 ms), BPA 2.0x (was 2.4-2.8x); an alternated best of 21 of the
