@@ -194,9 +194,8 @@ def capture_deposit(constants: Constants, re: Any, im: Any, sweep_arrays: Multip
 
     img = [gl(c, f64) for c in img_all]
     e0, e1, e2 = (mi.Vector3f(gl(e.x), gl(e.y), gl(e.z)) for e in frame_all)
-    position = sweep_arrays.receivers[receiver]
-    wx, wy, wz = (gs(position[0], f64) - img[0], gs(position[1], f64) - img[1],
-                  gs(position[2], f64) - img[2])
+    at = sweep_arrays.receivers[receiver]  # the receiver's position per sweep
+    wx, wy, wz = (gs(at[0], f64) - img[0], gs(at[1], f64) - img[1], gs(at[2], f64) - img[2])
     length = dr.sqrt(wx * wx + wy * wy + wz * wz)
     inv = 1.0 / length
     wn = mi.Vector3f(f32(wx * inv), f32(wy * inv), f32(wz * inv))
