@@ -125,10 +125,10 @@ def test_channels_focus_onto_one_grid_with_the_reference_phase_removed(backend):
     assert image.sizes["aperture"] == TRACK.duration * radar.prf
 
 
-def test_multi_channel_focusing_refuses_what_it_cannot_do_exactly():
+def test_multi_channel_focusing_refuses_an_unknown_algorithm():
     raw = _raw(mitsar.Radar(receivers=[(0, 0, 0), (0, 0, BASELINE)]))
-    with pytest.raises(ParameterError, match="multi-channel"):  # RDA: test_channels_spectral
-        mitsar.focus(raw, "ffbp")
+    with pytest.raises(ParameterError, match="algorithm"):  # FFBP: test_ffbp_channels
+        mitsar.focus(raw, "omega-k")
 
 
 # --- the ray tracer -----------------------------------------------------------------------------

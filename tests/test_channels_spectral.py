@@ -118,8 +118,6 @@ def test_spectral_channels_refuse_what_they_cannot_focus(raw):
                       u=[-0.1, 0.1, 0.05], v=[-0.1, 0.1, 0.05])
     with pytest.raises(ParameterError, match="SlantGrid"):
         mitsar.focus(raw, "rda", plane)
-    with pytest.raises(ParameterError, match="bpa"):
-        mitsar.focus(raw, "ffbp", GRID)
     tdm = mitsar.Radar(transmitters=[(0, 0, 0), (0, 0, 0.01)], receivers=[(0, 0, 0)])
     raw = mitsar.simulate_point_targets(tdm, TRACK, LOOK, [mitsar.PointTarget(PIXEL)],
                                         normalized=True)

@@ -64,10 +64,11 @@ __all__ = ["CHANNEL_ALGORITHMS", "SPECTRAL_ALGORITHMS", "channel_view", "common_
 SPECTRAL_ALGORITHMS = ("rda", "wda", "fsa")
 """Frequency-domain algorithms that focus channels after :func:`compensate_channel`."""
 
-CHANNEL_ALGORITHMS = ("bpa", *SPECTRAL_ALGORITHMS)
-"""Algorithms that focus multi-channel products: back-projection takes each channel's exact
-bistatic path, the spectral algorithms each channel compensated onto the common monostatic
-reference (module docstring); FFBP's polar stages assume a monostatic antenna."""
+CHANNEL_ALGORITHMS = ("bpa", "ffbp", *SPECTRAL_ALGORITHMS)
+"""Algorithms that focus multi-channel products: back-projection (BPA, and FFBP in all its
+stages: :mod:`mitsar.focus.ffbp`) takes each channel's exact bistatic path, the spectral
+algorithms each channel compensated onto the common monostatic reference (module
+docstring)."""
 
 DIRECTION_ERROR = "channel_direction_error"
 """Variable of a compensated channel: its half-path error over direction sines

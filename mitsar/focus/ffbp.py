@@ -43,6 +43,15 @@ Steps of :func:`focus_ffbp`:
    (:func:`mitsar.focus.aperture.full_aperture_weight`, :func:`normalise_image`), so a unit
    point focuses to about 1.
 
+A channel whose receiver is not its transmitter (one channel of a multi-channel product,
+:func:`mitsar.focus.channels.channel_view`) is back-projected on half its exact path in every
+stage, as BPA does (docs/focusing.md § FFBP, "Channels"): the polar grids stay the
+transmitter's (centres c), each sub-aperture also keeps its receiver's centre d, the first stage
+sums BPA's bistatic per-pulse terms, every image is demodulated by half the node's path
+``(|x - c| + |x - d|) / 2`` instead of rho (step 3), and a merge rotates by half the change of
+both ranges (step 4); a tapered window's shifted reads move in range too, so that half the
+path stays (:func:`mitsar.focus.ffbp_stages._receiver_read`).
+
 The azimuth window, whole beam or a band on a straight uniform track (a Doppler band-pass
 first, as BPA): each sweep is weighted at the first-stage nodes exactly as BPA weights it at a
 pixel (the window at the node's direction sine), so bends of the track are handled (a sweep
@@ -193,7 +202,8 @@ def focus_ffbp(raw: xr.Dataset, layout_or_pixels: dict | NDArray, *, half_width:
     # past the pixels' ranges (_make_stage): compress only that band (bp_setup.beat_band).
     reach = ((_MARGIN * len(stages) + 1) * rho_step
              + settings["first_subaperture"]
-             * float(np.linalg.norm(np.diff(track, axis=0), axis=-1).max(initial=0.0)))
+             * float(np.linalg.norm(np.diff(track, axis=0), axis=-1).max(initial=0.0))
+             + 0.5 * _baseline(raw))  # a bistatic channel's half path departs from the range
     bp = prepare(raw, half_width=half_width, window=window, range_window=range_window,
                  remove_rvp=remove_rvp,
                  range_upsample=min(range_upsample, settings["lookup_upsample"]),
@@ -217,6 +227,8 @@ def focus_ffbp(raw: xr.Dataset, layout_or_pixels: dict | NDArray, *, half_width:
     origin_local = pixels.mean(axis=0)
     sample = _pixel_sample(layout_or_pixels) - origin_local
     local_positions = positions - origin_local
+    # a bistatic channel: half its path in every stage (steps 2-5), the grids the transmitter's
+    local_receivers = None if bp.receivers is None else bp.receivers - origin_local
     normal, plane_point = _image_plane(sample, local_positions)
     wavenumber = 2 * radar.carrier_frequency / SPEED_OF_LIGHT  # two-way, cycles per metre
     window_support = (mean_centroid - kernel_half_width, mean_centroid + kernel_half_width)
@@ -230,11 +242,11 @@ def focus_ffbp(raw: xr.Dataset, layout_or_pixels: dict | NDArray, *, half_width:
     stage = _make_stage(stages[0], local_positions, velocities, sample, normal, plane_point,
                         rho_step, radar.wavelength,
                         settings["angle_oversample"] * settings["first_angle_oversample"],
-                        _MARGIN * len(stages), window_support, LANE_NODES)
+                        _MARGIN * len(stages), window_support, LANE_NODES, local_receivers)
     _check_nodes(stage, first=True)
     tables = kernel_tables(profile, frequency, radar, local_positions, velocities, bp.centroid,
                            kernel_half_width, kernel_window, motion_correction,
-                           interpolation=range_interpolation)
+                           receivers=local_receivers, interpolation=range_interpolation)
     first_stage(stage, node_frames(stage, normal, plane_point), tables, wavenumber)
     bar.update()
 
@@ -244,7 +256,8 @@ def focus_ffbp(raw: xr.Dataset, layout_or_pixels: dict | NDArray, *, half_width:
     for index, groups in enumerate(stages[1:], start=1):
         parent = _make_stage(groups, local_positions, velocities, sample, normal, plane_point,
                              rho_step, radar.wavelength, settings["angle_oversample"],
-                             _MARGIN * (len(stages) - index), window_support)
+                             _MARGIN * (len(stages) - index), window_support,
+                             receivers=local_receivers)
         _check_nodes(parent, first=False)
         merge_nodes(stage, parent, node_frames(parent, normal, plane_point),
                     _children_of(stage, parent), wavenumber, with_totals)
@@ -262,7 +275,7 @@ def focus_ffbp(raw: xr.Dataset, layout_or_pixels: dict | NDArray, *, half_width:
         local, direction, centre, band_first, band_end = _pad_lanes(
             width, pixels - origin_local, *band["frame"], *band["range"])
         launched = merge_band(kept, local, (direction, centre), (band_first, band_end),
-                              tables, half_width, bp.coefficients, wavenumber)
+                              tables, half_width, bp.coefficients, wavenumber, normal)
     elif bp.straight:
         origin, direction, _ = track_frame(raw)
         coordinates = track_coordinates(pixels, origin, direction)
@@ -586,22 +599,31 @@ def _longest_subaperture(track: NDArray, sample: NDArray, radar: Radar, settings
 def _make_stage(bounds: NDArray, positions: NDArray, velocities: NDArray, sample: NDArray,
                 normal: NDArray, plane_point: NDArray, rho_step: float, wavelength: float,
                 angle_oversample: float, margin: int, support: tuple[float, float],
-                alpha_multiple: int = 1) -> Stage:
+                alpha_multiple: int = 1, receivers: NDArray | None = None) -> Stage:
     """Centres, axes and polar-grid extents of the sub-apertures between ``bounds``.
 
     ``margin``: range nodes added beyond the pixels on every side (:data:`_MARGIN`; in angle
     at most :data:`_ANGLE_MARGIN`). ``N_alpha`` is
-    rounded up to a multiple of ``alpha_multiple`` (lanes of the first stage).
+    rounded up to a multiple of ``alpha_multiple`` (lanes of the first stage). ``receivers``:
+    a bistatic channel's receiver per sweep [m] (``positions``: its transmitter's), whose
+    centre each sub-aperture keeps for the demodulation (step 3); the polar grids stay the
+    transmitter's.
     """
     first, end = bounds[:-1], bounds[1:]
     last = end - 1
     middle_low, middle_high = (first + last) // 2, (first + last + 1) // 2
     centre = 0.5 * (positions[middle_low] + positions[middle_high])
+    receiver = receiver_axis = None
+    if receivers is not None:
+        receiver = 0.5 * (receivers[middle_low] + receivers[middle_high])
     chord = positions[last] - positions[first]
     mean_velocity = np.add.reduceat(velocities, first, axis=0)
     fallback = mean_velocity / np.maximum(np.linalg.norm(mean_velocity, axis=-1), 1e-12)[:, None]
     length = np.linalg.norm(chord, axis=-1)
     axis = np.where(length[:, None] > 1e-9, chord / np.maximum(length, 1e-12)[:, None], fallback)
+    if receivers is not None:  # the receiver's chord per unit of the transmitter's
+        receiver_axis = np.where(length[:, None] > 1e-9, (receivers[last] - receivers[first])
+                                 / np.maximum(length, 1e-12)[:, None], fallback)
     longest = float(length.max()) + _spacing(positions)
     alpha_step = wavelength / (2 * longest * angle_oversample)
     # |x - c| and a.(x - c) by products (no (J, Q, 3) temporary; local frame, ranges ~10 m:
@@ -621,7 +643,7 @@ def _make_stage(bounds: NDArray, positions: NDArray, velocities: NDArray, sample
     n_alpha = int(np.ceil((high - low).max() / alpha_step)) + 2 * angle_margin + 1
     n_alpha = -(-n_alpha // alpha_multiple) * alpha_multiple
     return Stage(first, end, centre, axis, rho0, alpha0, rho_step, alpha_step,
-                 (n_rho, n_alpha), length)
+                 (n_rho, n_alpha), length, receiver, receiver_axis)
 
 
 NODE_BYTES = 56
@@ -646,6 +668,14 @@ def _check_nodes(stage: Stage, first: bool) -> None:
             f"{stage.shape[1]} angles)")
     require_memory("focus", parameter, float(nodes) * NODE_BYTES,
                    "lower the FFBP oversampling or focus a smaller grid")
+
+
+def _baseline(raw: xr.Dataset) -> float:
+    """Largest distance [m] between a channel's transmitter and receiver (0: monostatic)."""
+    if "transmitter_offset" not in raw.variables:
+        return 0.0
+    return float(np.linalg.norm(np.asarray(raw["receiver_offset"].values, dtype=float)
+                                - np.asarray(raw["transmitter_offset"].values, dtype=float)))
 
 
 def _spacing(positions: NDArray) -> float:
