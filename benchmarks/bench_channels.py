@@ -13,8 +13,9 @@ best of ``--rounds``:
    of the wall is the histogram -> raw synthesis (one inverse FFT per sweep and channel) that
    every channel needs for its own raw data;
 2. the analytic simulator (:func:`mitsar.simulate_point_targets`, one point target): the same;
-3. back-projection of every channel onto one grid (:func:`mitsar.focus`, 256^2 pixels):
-   channel-pixel-pulses per second and the ratio.
+3. back-projection of every channel onto one grid (:func:`mitsar.focus`, 256^2 pixels), by
+   BPA and by FFBP: channel-pixel-pulses per second (FFBP's as the BPA sum it stands for)
+   and the ratios.
 
 ``--max-depth 3`` (and ``--ghosts``) traces multipath too: the shoot-and-bounce rays are
 shared by the receivers, each with its own capture tests and deposits.
@@ -201,17 +202,19 @@ def main() -> None:
         analytic_wall, raw = _best(lambda r=radar: mitsar.simulate_point_targets(
             r, track, LOOK, target), args.rounds)
         focus_wall, image = _best(lambda r=raw: mitsar.focus(r, "bpa", grid), args.rounds)
+        ffbp_wall, _ = _best(lambda r=raw: mitsar.focus(r, "ffbp", grid), args.rounds)
         pixels = image["position"].shape[0] * image["position"].shape[1]
-        walls[name].update(analytic=analytic_wall, bpa=focus_wall)
+        walls[name].update(analytic=analytic_wall, bpa=focus_wall, ffbp=ffbp_wall)
         rows.append((name, channels * args.sweeps / traced_wall,
                      channels * args.sweeps / analytic_wall,
-                     channels * pixels * raw.sizes["sweep"] / focus_wall / 1e6))
+                     *(channels * pixels * raw.sizes["sweep"] / wall / 1e6
+                       for wall in (focus_wall, ffbp_wall))))
     print(f"scene {args.scene}, {args.sweeps} sweeps, best of {args.rounds}, max_depth "
           f"{args.max_depth}{' with ghosts' if args.ghosts else ''}")
     print(f"{'case':<14}{'trace ch*sweeps/s':>20}{'analytic ch*sweeps/s':>23}"
-          f"{'BPA M ch*pixel-pulses/s':>26}")
-    for name, traced, analytic, bpa in rows:
-        print(f"{name:<14}{traced:>20.1f}{analytic:>23.1f}{bpa:>26.1f}")
+          f"{'BPA M ch*pixel-pulses/s':>26}{'FFBP M ch*pixel-pulses/s':>27}")
+    for name, traced, analytic, bpa, ffbp in rows:
+        print(f"{name:<14}{traced:>20.1f}{analytic:>23.1f}{bpa:>26.1f}{ffbp:>27.1f}")
     one, two = walls["1 receiver"], walls["2 receivers"]
     print("2 receivers / 1 receiver: " + ", ".join(
         f"{key} {two[key] / one[key]:.3f}x" for key in one if key != "block ops")
