@@ -345,18 +345,6 @@ class Radar(metaclass=KnownFields):
         return np.array([two_way_boresight(t, r, widths, look)
                          for t, r in zip(transmitters, receivers, strict=True)])
 
-    def require_shared_beam(self, where: str) -> None:
-        """Refuse elements with their own pattern or boresight in a producer that models the
-        radar's one antenna only (names the first such element)."""
-        for name in ("receiver_elements", "transmitter_elements"):
-            for i, element in enumerate(getattr(self, name) or ()):
-                if element.has_own_beam:
-                    raise ParameterError(
-                        where, f"radar.{name[:-9]}s[{i}]", "an element without its own pattern "
-                        "or boresight (this producer gives every phase centre the radar's "
-                        "antenna; per-element beams are modelled by simulate_point_targets: "
-                        "docs/interferometry.md §8)", element)
-
     def virtual_phase_centres(self) -> NDArray[np.float64]:
         """Far-field virtual array element of each channel, ``t_i + r_j`` (body frame) [m].
 

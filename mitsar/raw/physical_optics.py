@@ -24,7 +24,7 @@ vectorised over sweep × chain × sub-facet lanes in blocks; no Python loop over
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -89,13 +89,23 @@ class FacetEchoes:
         Rigid motion of each selected shape (None: static); replaces ``velocities`` (for
         rotating shapes and paths). The Doppler of a reflection point is its rigid-body
         velocity; a chain's image moves with its mirror planes' points, not their turning.
+    receivers : tuple of (ndarray (sweeps, 3) or None), optional
+        The receive channels of one transmitter (``geometry``: the transmitter's phase
+        centre per sweep), as the integrator's ``channel_receivers``: None where a receiver
+        is the transmitter, else its position per sweep [m]. Each gets its own echo of every
+        chain and sub-facet (the scattered direction and range toward it, its pattern, its
+        shadow ray from the last reflection point, the path's rate) in its own histogram;
+        the chains and their lit apertures are the transmitter's (docs/interferometry.md §8).
+        The receivers share the radar's beam (the integrator refuses elements with their own).
     """
 
     def __init__(self, radar: Radar, scene: Any, facets: FacetSet, geometry: dict,
                  frames: NDArray, ranges: NDArray, bins_per_cell: int, max_length: int = 1,
                  velocities: NDArray | None = None, beam_cull: float = 2.0,
-                 motions: list[RigidMotion | None] | None = None) -> None:
+                 motions: list[RigidMotion | None] | None = None,
+                 receivers: tuple[NDArray | None, ...] | None = None) -> None:
         self.radar, self.scene, self.facets = radar, scene, facets
+        self.receivers = receivers
         self.geometry, self.frames, self.ranges = geometry, frames, ranges
         self.step = hg.range_step(radar, bins_per_cell)
         self.times = np.asarray(geometry.slow_time, float) + radar.sweep_duration / 2
@@ -169,13 +179,15 @@ class FacetEchoes:
 
     def histogram(self, sweeps: NDArray, orders: int, rvp: bool = True,
                   normalized: bool = False) -> NDArray[np.complex128]:
-        """Histograms of the PO echoes of some sweeps, shape (len(sweeps), orders, bins)
-        [sqrt(W)]; a chain of n facets deposits at order n (chains longer than
-        ``orders − 1`` are left out). ``rvp``, ``normalized`` as
-        :func:`mitsar.raw.traced.trace`; the scene must be in the state of these sweeps (its
-        shapes where they are at mid-sweep) for the shadow rays."""
+        """Histograms of the PO echoes of some sweeps, shape (len(sweeps), orders, bins), or
+        (len(sweeps), receivers, orders, bins) with ``receivers`` [sqrt(W)]; a chain of n
+        facets deposits at order n (chains longer than ``orders − 1`` are left out). ``rvp``,
+        ``normalized`` as :func:`mitsar.raw.traced.trace`; the scene must be in the state of
+        these sweeps (its shapes where they are at mid-sweep) for the shadow rays."""
         sweeps = np.asarray(sweeps, dtype=np.int64)
-        out = np.zeros((len(sweeps), orders, len(self.ranges)), dtype=np.complex128)
+        per_receiver = () if self.receivers is None else (len(self.receivers),)
+        out = np.zeros((len(sweeps), *per_receiver, orders, len(self.ranges)),
+                       dtype=np.complex128)
         for length, (prefix, sub) in enumerate(self.rows, start=1):   # chain lengths (≤ 7)
             if length >= orders or len(sub) == 0:
                 continue
@@ -189,13 +201,17 @@ class FacetEchoes:
 
     def _deposit(self, out: NDArray, length: int, row: NDArray, sweeps: NDArray,
                  prefix: NDArray, sub: NDArray, rvp: bool, normalized: bool) -> None:
+        """Every receiver's echoes of one block of (sweep, chain, sub-facet) lanes."""
         radar = self.radar
         t = self.times[sweeps]
         p = self.geometry.position[sweeps]
         frames = self.frames[sweeps]
         last = self._moved(self.triangles[sub], self.shape[sub], t)
-        u_exit, _, p_exit = _pattern(last.mean(axis=1) - p, frames, radar)
-        front = p_exit > 0                               # cheap cull: behind the antenna
+        receivers = ([None] if self.receivers is None
+                     else [None if q is None else q[sweeps] for q in self.receivers])
+        front = np.zeros(len(p), dtype=bool)             # cheap cull: behind every antenna
+        for q in receivers:
+            front |= _pattern(last.mean(axis=1) - (p if q is None else q), frames, radar)[2] > 0
         if not np.any(front):
             return
         row, sweeps, prefix, sub, t, p = (a[front] for a in (row, sweeps, prefix, sub, t, p))
@@ -204,18 +220,34 @@ class FacetEchoes:
         links = [self._moved(tri[prefix[:, m]], self.facets.shape[prefix[:, m]], t)
                  for m in range(length - 1)] + [last]
         shapes = np.concatenate([self.facets.shape[prefix], self.shape[sub][:, None]], axis=1)
-        echo = chain_echo(links, p, p, radar.wavelength,
+        normals = [po.facet_plane(link)[1] for link in links]
+        lanes = _Lanes(row, sweeps, prefix, sub, t, p, frames, links, shapes, normals)
+        for k, q in enumerate(receivers):                # the transmitter's receivers (a few)
+            index = (row,) if self.receivers is None else (row, np.full(len(row), k))
+            self._deposit_receiver(out, length, lanes, index, None if q is None else q[front],
+                                   rvp, normalized)
+
+    def _deposit_receiver(self, out: NDArray, length: int, lanes: _Lanes, index: tuple,
+                          q: NDArray, rvp: bool, normalized: bool) -> None:
+        """One receiver's echoes (at ``q`` (lanes, 3) [m], None: at the transmitter) of a
+        block's lanes into the histogram rows ``index`` (sweep rows, and the receiver's
+        column)."""
+        radar = self.radar
+        row, sweeps, prefix, sub, t, p, frames, links, shapes, normals = lanes
+        monostatic = q is None
+        q = p if monostatic else q
+        echo = chain_echo(links, p, q, radar.wavelength,
                           lambda m, cos: self.facets.reflection(cos, shapes[:, m]))
         _, _, p_tx = _pattern(echo.entry - p, frames, radar)
-        _, _, p_rx = _pattern(echo.exit - p, frames, radar)
+        _, _, p_rx = _pattern(echo.exit - q, frames, radar)
         pattern2 = p_tx * p_rx
         keep = (echo.amplitude != 0) & (pattern2 > 0)
-        normals = [po.facet_plane(link)[1] for link in links]
-        for point, normal in ((echo.exit, normals[-1]), (echo.entry, normals[0])):
-            if np.any(keep):                             # shadow rays: exit, then entry
-                seen = segments_visible(self.scene, point[keep], normal[keep], p[keep])
+        # shadow rays: the exit to the receiver, then the entry to the transmitter
+        for point, normal, antenna in ((echo.exit, normals[-1], q), (echo.entry, normals[0], p)):
+            if np.any(keep):
+                seen = segments_visible(self.scene, point[keep], normal[keep], antenna[keep])
                 keep[np.flatnonzero(keep)[~seen]] = False
-            if length == 1:
+            if length == 1 and monostatic:  # one point, one antenna: one ray
                 break
         if not np.any(keep):
             return
@@ -227,8 +259,9 @@ class FacetEchoes:
         else:
             amplitude = radar_equation_amplitude(radar, 1.0, r_t, r_r,
                                                  two_way_pattern=pattern2) * amplitude
-        # path L = |c − I| + |p − c|, its rate with the image moving as the mirrored platform
-        # velocity in planes that translate with their shapes (docs/multipath.md, Doppler)
+        # path L = |c − I| + |q − c|, its rate with the image moving as the mirrored platform
+        # velocity in planes that translate with their shapes (docs/multipath.md, Doppler);
+        # the receiver moves with the platform
         v_p = self.geometry.velocity[sweeps][keep]
         v_image = v_p
         for m in range(length - 1):
@@ -240,14 +273,13 @@ class FacetEchoes:
         v_c = (self.velocity[sub[keep]] if self.motions is None
                else self._velocity(point, self.shape[sub[keep]], t[keep]))
         rate = (np.einsum("ni,ni->n", _unit(point - echo.image[keep]), v_c - v_image)
-                + np.einsum("ni,ni->n", _unit(p[keep] - point), v_p - v_c))
+                + np.einsum("ni,ni->n", _unit(q[keep] - point), v_p - v_c))
         path = r_t + r_r
         cycles = hg.deposit_cycles(path / SPEED_OF_LIGHT, radar, 1.0 if rvp else 0.0)
         value = amplitude * np.exp(2j * np.pi * (cycles - np.floor(cycles)))
-        hg.deposit(out, (row[keep], np.full(int(keep.sum()), length)), value,
+        hg.deposit(out, (*(i[keep] for i in index), np.full(int(keep.sum()), length)), value,
                    hg.apparent_range(0.5 * path, 0.5 * rate, radar), float(self.ranges[0]),
                    self.step)
-
 
     def _moved(self, points: NDArray, shapes: NDArray, t: NDArray) -> NDArray:
         """``points`` (lanes, ..., 3) of facets of the selected shapes ``shapes`` (lanes,) at
@@ -262,6 +294,23 @@ class FacetEchoes:
     def _velocity(self, points: NDArray, shapes: NDArray, t: NDArray) -> NDArray:
         """Rigid-body velocity [m/s] of the facet points ``points`` (lanes, 3) at ``t``."""
         return _rigid_apply(self.motions, shapes, points, t, "point_velocity")
+
+
+class _Lanes(NamedTuple):
+    """A block's lanes after the cull, shared by the receivers (:meth:`FacetEchoes._deposit`):
+    histogram rows, sweeps, chain prefixes, sub-facets, slow times [s], transmitter positions
+    [m], antenna frames, the chain's links [m], their shapes and unit normals."""
+
+    row: NDArray
+    sweeps: NDArray
+    prefix: NDArray
+    sub: NDArray
+    t: NDArray
+    p: NDArray
+    frames: NDArray
+    links: list[NDArray]
+    shapes: NDArray
+    normals: list[NDArray]
 
 
 def _rigid_apply(motions: list[RigidMotion | None], shapes: NDArray, points: NDArray,

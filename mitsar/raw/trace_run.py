@@ -171,9 +171,10 @@ class TraceRun:
                 self.scene, self.motion.motion))
         self.reception_warnings = self._reception(where) if self.backscatter else []
         facets = self._facets(where, self.config.physical_optics)
-        if facets is not None and self.channel is not None:
-            raise ParameterError(where, "physical_optics", "false with a multi-channel radar "
-                                 "(its facet echoes are monostatic; docs/interferometry.md)",
+        if facets is not None and radar.has_element_beams:
+            raise ParameterError(where, "physical_optics", "false with elements that have "
+                                 "their own beam (the facet echoes take the radar's one "
+                                 "pattern; docs/interferometry.md §8)",
                                  self.config.physical_optics)
         low, high = range_limits(self.scatterers, self.geometry.position,
                                  trajectory.max_speed(), radar, trajectory.duration)
@@ -203,12 +204,14 @@ class TraceRun:
         # Physical optics (docs/physical_optics.md §5): chains of up to max_depth - 1 facets
         # (at least the single facets), at order = their length; the tracer's rays stop on the
         # same shapes, so no specular path through them is counted twice.
+        # (from the transmitter's phase centre; each receive channel its own echoes)
         self.facet_echoes = None if facets is None else FacetEchoes(
-            radar, self.scene, facets, self.geometry, self.frames, self.ranges,
+            radar, self.scene, facets, self.trace_geometry, self.frames, self.ranges,
             self.config.bins_per_cell, max(1, self.config.max_depth - 1),
             surface_velocities(self.scene, self.motion.motion)[list(facets.surface_index)],
             self.config.beam_cull,
-            self.motion.shape_motions(facets.shape_ids) if self.motion.rotating else None)
+            self.motion.shape_motions(facets.shape_ids) if self.motion.rotating else None,
+            self.setup.channel_receivers)
         self.orders = max(self.config.max_depth, 1 if facets is None else 2)
 
     def _channels(self, where: str, radar: Radar, channels: tuple[int, ...] | None
@@ -321,7 +324,7 @@ class TraceRun:
             # the scene is in the state of these sweeps here (the moving generator is
             # suspended inside its sweep), so the PO shadow rays see the shapes where they are
             po = self.facet_echoes.histogram(chosen, self.orders, rvp, normalized)
-            po[:, :hist.shape[1]] += hist
+            po[..., :hist.shape[-2], :] += hist  # (sweeps, [receivers,] orders, bins)
             yield chosen, po
 
     def _moving_chunks(self, rvp: bool, normalized: bool, progress: bool
