@@ -35,8 +35,8 @@ def _plane(target, extent=0.6, step=0.005):
     return PlaneGrid(origin=target, axis_u=[1, 0, 0], axis_v=[0, 1, 0], u=axis, v=axis)
 
 
-def _both(raw, grid, **options):
-    return [mitsar.focus(raw, algorithm, grid, azimuth_resolution=0.1, **options)
+def _both(raw, grid, resolution=0.1, **options):
+    return [mitsar.focus(raw, algorithm, grid, azimuth_resolution=resolution, **options)
             for algorithm in ("bpa", "ffbp")]
 
 
@@ -64,11 +64,11 @@ def test_ffbp_focuses_every_channel_as_bpa_on_a_straight_track(receiver):
     assert abs(np.angle(f0 * np.conj(f1) * np.conj(b0 * np.conj(b1)))) < 2e-3
 
 
-def _turn_raw(radar):
-    """The 20-degree left turn of radius 10 m of tests/test_ffbp_turns.py, the point broadside
-    at its middle: "pixel" band selection, each pixel's band summed from sub-apertures of any
-    stage (mitsar.focus.ffbp_stages.merge_band)."""
-    radius, turn = 10.0, math.radians(20.0)
+def _turn_raw(radar, turn_deg=20.0, radius=10.0):
+    """A left turn (default the 20-degree turn of radius 10 m of tests/test_ffbp_turns.py),
+    the point broadside at its middle: "pixel" band selection, each pixel's band summed from
+    sub-apertures of any stage (mitsar.focus.ffbp_stages.merge_band)."""
+    turn = math.radians(turn_deg)
     points = [[12.0, 1.4, HEIGHT], [15.0, 1.4, HEIGHT],
               [15.0 + 3 * math.cos(turn), 1.4 + 3 * math.sin(turn), HEIGHT]]
     track = mitsar.Trajectory.flight(points, 0.5, turn_radius=radius)
@@ -82,15 +82,21 @@ def _turn_raw(radar):
     return raw, target
 
 
-def test_ffbp_channels_on_a_turn_with_a_tapered_window():
+@pytest.mark.parametrize(("receiver", "turn", "radius", "resolution", "windows"), [
+    (OBLIQUE, 20.0, 10.0, 0.1, ("hamming", "rect")),
+    ((0.0, 0.6, 0.0), 40.0, 3.0, 0.05, ("hamming",))], ids=["oblique", "lateral-tight"])
+def test_ffbp_channels_on_a_turn_with_a_tapered_window(receiver, turn, radius, resolution,
+                                                       windows):
     """The Hamming window weights a whole sub-aperture by reading its image at shifted
     direction cosines (mitsar.focus.ffbp_stages._windowed_piece). For the receiver's channel
-    the step also moves half its path, so the read moves in range too (_receiver_read).
-    Measured: channel 0 -41.8 dB, the receiver's -41.6 dB; reading at the monostatic shift
-    left -35.5 dB. Rect: -48.8 and -49.4 dB."""
-    raw, target = _turn_raw(mitsar.Radar(receivers=[(0, 0, 0), OBLIQUE]))
-    for window in ("hamming", "rect"):
-        bpa, ffbp = _both(raw, _plane(target), window=window)
+    the step also moves half its path, so the read moves in range too, and the receiver's
+    phase ramp turns at kappa times the transmitter's (_receiver_read). Measured, oblique
+    receiver on the 20-degree turn: channel 0 -41.8 dB, the receiver's -41.6 dB; without the
+    range shift -35.5 dB; rect -48.8 and -49.4 dB. A receiver 0.6 m to the side on a
+    40-degree turn of radius 3 m at 5 cm: -46.0 and -46.3 dB; with kappa = 1, -42.5 dB."""
+    raw, target = _turn_raw(mitsar.Radar(receivers=[(0, 0, 0), receiver]), turn, radius)
+    for window in windows:
+        bpa, ffbp = _both(raw, _plane(target), window=window, resolution=resolution)
         assert ffbp.attrs["ffbp_final"] == "pixel band"
         errors = [_error_db(ffbp["image"].values[k], bpa["image"].values[k]) for k in range(2)]
         assert errors[0] < -35.0, window

@@ -125,7 +125,8 @@ def focus_channels(raw: xr.Dataset, algorithm: str, grid: Grid,
     raw : xarray.Dataset
         A raw product with a ``channel`` dimension.
     algorithm : str
-        Must be one of :data:`CHANNEL_ALGORITHMS`.
+        One of :data:`CHANNEL_ALGORITHMS` (every algorithm of :func:`mitsar.focus`, which
+        refuses any other name first).
     grid : Grid
         The output grid, resolved on channel 0.
     focus_one : callable
@@ -145,11 +146,6 @@ def focus_channels(raw: xr.Dataset, algorithm: str, grid: Grid,
     xarray.Dataset
         The image product with a ``channel`` dimension (module docstring).
     """
-    if algorithm not in CHANNEL_ALGORITHMS:
-        raise ParameterError("focus", "algorithm", f"one of {CHANNEL_ALGORITHMS} for a "
-                             f"multi-channel raw product ({raw.sizes['channel']} channels: each "
-                             "channel's exact bistatic path is back-projected); or focus one "
-                             "channel: mitsar.focus.channels.channel_view(raw, k)", algorithm)
     if autofocus is not None and radar_of(raw).is_tdm:
         raise ParameterError("focus", "autofocus", "None for a TDM-MIMO raw product (its "
                              "channels hold the sweeps of different transmitters; "

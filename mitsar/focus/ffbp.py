@@ -671,7 +671,8 @@ def _check_nodes(stage: Stage, first: bool) -> None:
 
 
 def _baseline(raw: xr.Dataset) -> float:
-    """Largest distance [m] between a channel's transmitter and receiver (0: monostatic)."""
+    """Distance [m] between the transmitter and the receiver of a one-channel view
+    (:func:`mitsar.focus.channels.channel_view`; 0: monostatic)."""
     if "transmitter_offset" not in raw.variables:
         return 0.0
     return float(np.linalg.norm(np.asarray(raw["receiver_offset"].values, dtype=float)

@@ -13,6 +13,11 @@ sub-aperture's frame (:func:`polar_node`, float64). Kernels:
   4 x 4 taps, each row of four taps one packet load, :func:`_tap_rows`) at a parent's nodes
   or at the output pixels, re-phased by
   ``2 pi (2 f_c / c)(rho_P - rho_j)`` (module docstring of :mod:`mitsar.focus.ffbp`, step 4).
+
+A bistatic channel (``Stage.receiver``) replaces rho by half the path from the sub-aperture's
+transmitter and receiver centres in the demodulation (:func:`_centre_paths`) and the
+re-phasing (:func:`_range_change` of both centres), and its windowed pieces move their reads
+in range too (:func:`_receiver_read`; docs/focusing.md § FFBP, "Channels").
 """
 
 from __future__ import annotations

@@ -96,7 +96,8 @@ class FacetEchoes:
         chain and sub-facet (the scattered direction and range toward it, its pattern, its
         shadow ray from the last reflection point, the path's rate) in its own histogram;
         the chains and their lit apertures are the transmitter's (docs/interferometry.md §8).
-        The receivers share the radar's beam (the integrator refuses elements with their own).
+        The receivers share the radar's beam (:class:`~mitsar.raw.trace_run.TraceRun` refuses
+        elements with their own).
     """
 
     def __init__(self, radar: Radar, scene: Any, facets: FacetSet, geometry: dict,

@@ -178,6 +178,7 @@ class TraceRun:
                                  self.config.physical_optics)
         low, high = range_limits(self.scatterers, self.geometry.position,
                                  trajectory.max_speed(), radar, trajectory.duration)
+        reach = 0.0
         if self.channels is not None:  # half paths of phase centres off the track point
             reach = max(float(np.linalg.norm(offset))
                         for offset in (*radar.channel_offsets()[0], *radar.channel_offsets()[1]))
@@ -192,7 +193,8 @@ class TraceRun:
                                           offset)
         if facets is not None:
             low, high = _facet_limits(facets.triangles, self.geometry.position, low, high,
-                                      radar, trajectory.max_speed() + self.motion.max_speed())
+                                      radar, trajectory.max_speed() + self.motion.max_speed(),
+                                      reach)
         if self.motion.rotating:  # rotating shapes and paths: their bounding spheres' ranges
             near, far = self.motion.range_span(self.geometry.position,
                                                self.geometry.slow_time)
@@ -287,8 +289,10 @@ class TraceRun:
         if physical_optics is False or physical_optics is None:
             return None
         if self.setup.bistatic or self.setup.planar:
-            raise ParameterError(where, "physical_optics", "false with a bistatic receiver or "
-                                 "in 2D mode (physical optics is monostatic and 3-D)",
+            raise ParameterError(where, "physical_optics", "false with a bistatic receiver_offset "
+                                 "or in 2D mode (physical optics is traced in 3-D from one "
+                                 "phase centre per transmitter: receive channels, "
+                                 "Radar(receivers=...), each get their echoes)",
                                  physical_optics)
         facets = scene_facets(self.scene, physical_optics)
         if len(facets) == 0:          # True, and no mesh with a radar material
@@ -395,16 +399,19 @@ def _moving_scatterers(scatterers: ScattererSet, shape_velocities: NDArray) -> S
 
 
 def _facet_limits(triangles: NDArray, positions: NDArray, low: float, high: float,
-                  radar: Radar, max_speed: float) -> tuple[float, float]:
+                  radar: Radar, max_speed: float, reach: float = 0.0) -> tuple[float, float]:
     """Widen the apparent-range limits to the PO facets' ranges (single facets; chains lie
-    within the multipath limits), with the Doppler margin of :func:`_multipath_limits`."""
+    within the multipath limits), with the Doppler margin of :func:`_multipath_limits`;
+    ``reach``: how far the phase centres may be from the track points ``positions`` [m] (a
+    channel's half path lies within it of the track point's range)."""
     lo, hi = triangles.reshape(-1, 3).min(axis=0), triangles.reshape(-1, 3).max(axis=0)
     nearest = np.linalg.norm(positions - np.clip(positions, lo, hi), axis=1).min()
     corners = np.array(np.meshgrid(*zip(lo, hi, strict=True), indexing="ij")).reshape(3, -1).T
     farthest = np.linalg.norm(positions[:, None, :] - corners[None], axis=-1).max()
     margin = (radar.carrier_frequency / radar.chirp_rate) * 2.0 * max_speed \
         + 2 * radar.range_resolution
-    return min(low, nearest - margin), max(high, min(farthest, radar.max_range) + margin)
+    return (min(low, nearest - reach - margin),
+            max(high, min(farthest + reach, radar.max_range) + margin))
 
 
 def _multipath_limits(scene: Any, positions: NDArray, low: float, high: float, radar: Radar,
