@@ -92,7 +92,7 @@ def check_multichannel(image: Any, where: str) -> None:
     dims = tuple(map(str, image["image"].dims)) if "image" in image else ()
     if "channel" not in dims or image.sizes["channel"] < 2:
         raise ParameterError(where, "image", "an image with a 'channel' dim of two or more "
-                             "receive channels: focus a multi-channel raw product with BPA "
+                             "receive channels: focus a multi-channel raw product (BPA, FFBP, ...) "
                              "([radar] receivers = [[0, 0, 0], [0, 0, 0.05]] in the experiment, "
                              "then mitsar simulate and mitsar focus -a bpa)",
                              f"image dims {dims}")

@@ -12,7 +12,8 @@
    (:func:`mitsar.experiment.rays.run_rays`), then **focused** with every requested algorithm
    (``image_<algorithm>.nc`` and figures), **measured** at its target (IRW, PSLR, ISLR, with the
    cuts), and optionally put through a **Monte Carlo** over background realisations; a radar
-   with two or more receive channels also gets the **interferogram** of its BPA image
+   with two or more receive channels also gets the **interferogram** of its BPA image (else
+   the first algorithm's)
    (``[interferometry]``; :mod:`mitsar.experiment.interferometry`: ``interferometry/`` with
    the product, the point cloud and the maps);
    an experiment with ``[[passes]]`` gets one raw product, image and metrics per pass
@@ -510,15 +511,19 @@ INTERFEROMETRY_FOLDER = "interferometry"
 
 def _interferometry(run: RunFolder, experiment: Experiment, result: PipelineResult,
                     progress: bool) -> None:
-    """The interferogram of the BPA image of a multi-channel radar, its point cloud and maps
+    """The interferogram of the channels' image of a multi-channel radar (BPA's where it was
+    focused, else the first algorithm's), its point cloud and maps
     (:func:`mitsar.experiment.interferometry.write_interferometry`) into
-    :data:`INTERFEROMETRY_FOLDER`; ``record["interferometry"]`` holds the summary and the point
-    cloud's file, the maps are figures of the section "Interferometry"."""
-    image = result.images.get("bpa")
-    if image is None:
-        run.warn("interferometry: not formed: it needs the BPA image of the channels (the only "
-                 "focuser of several channels): run with -a bpa")
+    :data:`INTERFEROMETRY_FOLDER`; ``record["interferometry"]`` holds the summary, the
+    algorithm and the point cloud's file, the maps are figures of the section
+    "Interferometry"."""
+    focused = [name for name, image in result.images.items()
+               if "channel" in image["image"].dims]
+    if not focused:
+        run.warn("interferometry: not formed: no image of the channels was focused")
         return
+    algorithm = "bpa" if "bpa" in focused else focused[0]
+    image = result.images[algorithm]
     start = time.perf_counter()
     try:
         formed = run_interferometry(image, experiment.interferometry, where="interferometry",
@@ -534,6 +539,7 @@ def _interferometry(run: RunFolder, experiment: Experiment, result: PipelineResu
     run.record["figures"] += [dict(entry, section="Interferometry")
                               for entry in interferometry_figure_entries(prefix)]
     run.record["interferometry"] = {"summary": interferometry_summary(formed),
+                                    "algorithm": algorithm,
                                     "points": prefix + INTERFEROMETRY_FILES["points"]}
 
 
