@@ -33,6 +33,7 @@ from mitsar.errors import ParameterError
 from mitsar.model import histogram as hg
 from mitsar.model import physical_optics as po
 from mitsar.model.bounce_chains import chain_echo, facet_chains, facets_in_beam, mirror_points
+from mitsar.model.elements import element_field_pattern
 from mitsar.model.geometry.antenna import direction_sines, one_way_pattern
 from mitsar.model.geometry.rigid_motion import RigidMotion
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
@@ -96,17 +97,22 @@ class FacetEchoes:
         chain and sub-facet (the scattered direction and range toward it, its pattern, its
         shadow ray from the last reflection point, the path's rate) in its own histogram;
         the chains and their lit apertures are the transmitter's (docs/interferometry.md §8).
-        The receivers share the radar's beam (:class:`~mitsar.raw.trace_run.TraceRun` refuses
-        elements with their own).
+    beams : tuple of (ElementBeam, ElementBeam, float), optional
+        Per receiver, its channel's (transmit, receive) element beams and gain ratio
+        ``sqrt(G_t G_r) / G`` (the integrator's ``channel_beams``): a receive element with a
+        beam of its own weights its echoes by its own one-way pattern toward the last
+        reflection point and its gain (:func:`mitsar.model.elements.channel_amplitude_factor`'s
+        receive part); the transmit elements share the radar's beam (the tracer refuses others).
     """
 
     def __init__(self, radar: Radar, scene: Any, facets: FacetSet, geometry: dict,
                  frames: NDArray, ranges: NDArray, bins_per_cell: int, max_length: int = 1,
                  velocities: NDArray | None = None, beam_cull: float = 2.0,
                  motions: list[RigidMotion | None] | None = None,
-                 receivers: tuple[NDArray | None, ...] | None = None) -> None:
+                 receivers: tuple[NDArray | None, ...] | None = None,
+                 beams: tuple[tuple[Any, Any, float], ...] | None = None) -> None:
         self.radar, self.scene, self.facets = radar, scene, facets
-        self.receivers = receivers
+        self.receivers, self.beams = receivers, beams
         self.geometry, self.frames, self.ranges = geometry, frames, ranges
         self.step = hg.range_step(radar, bins_per_cell)
         self.times = np.asarray(geometry.slow_time, float) + radar.sweep_duration / 2
@@ -203,7 +209,6 @@ class FacetEchoes:
     def _deposit(self, out: NDArray, length: int, row: NDArray, sweeps: NDArray,
                  prefix: NDArray, sub: NDArray, rvp: bool, normalized: bool) -> None:
         """Every receiver's echoes of one block of (sweep, chain, sub-facet) lanes."""
-        radar = self.radar
         t = self.times[sweeps]
         p = self.geometry.position[sweeps]
         frames = self.frames[sweeps]
@@ -211,8 +216,8 @@ class FacetEchoes:
         receivers = ([None] if self.receivers is None
                      else [None if q is None else q[sweeps] for q in self.receivers])
         front = np.zeros(len(p), dtype=bool)             # cheap cull: behind every antenna
-        for q in receivers:
-            front |= _pattern(last.mean(axis=1) - (p if q is None else q), frames, radar)[2] > 0
+        for k, q in enumerate(receivers):
+            front |= self._receive(last.mean(axis=1) - (p if q is None else q), frames, k) > 0
         if not np.any(front):
             return
         row, sweeps, prefix, sub, t, p = (a[front] for a in (row, sweeps, prefix, sub, t, p))
@@ -224,23 +229,22 @@ class FacetEchoes:
         normals = [po.facet_plane(link)[1] for link in links]
         lanes = _Lanes(row, sweeps, prefix, sub, t, p, frames, links, shapes, normals)
         for k, q in enumerate(receivers):                # the transmitter's receivers (a few)
-            index = (row,) if self.receivers is None else (row, np.full(len(row), k))
-            self._deposit_receiver(out, length, lanes, index, None if q is None else q[front],
+            self._deposit_receiver(out, length, lanes, k, None if q is None else q[front],
                                    rvp, normalized)
 
-    def _deposit_receiver(self, out: NDArray, length: int, lanes: _Lanes, index: tuple,
-                          q: NDArray, rvp: bool, normalized: bool) -> None:
-        """One receiver's echoes (at ``q`` (lanes, 3) [m], None: at the transmitter) of a
-        block's lanes into the histogram rows ``index`` (sweep rows, and the receiver's
-        column)."""
+    def _deposit_receiver(self, out: NDArray, length: int, lanes: _Lanes, receiver: int,
+                          q: NDArray | None, rvp: bool, normalized: bool) -> None:
+        """Receiver ``receiver``'s echoes (at ``q`` (lanes, 3) [m], None: at the transmitter)
+        of a block's lanes into its histogram rows."""
         radar = self.radar
         row, sweeps, prefix, sub, t, p, frames, links, shapes, normals = lanes
+        index = (row,) if self.receivers is None else (row, np.full(len(row), receiver))
         monostatic = q is None
         q = p if monostatic else q
         echo = chain_echo(links, p, q, radar.wavelength,
                           lambda m, cos: self.facets.reflection(cos, shapes[:, m]))
         _, _, p_tx = _pattern(echo.entry - p, frames, radar)
-        _, _, p_rx = _pattern(echo.exit - q, frames, radar)
+        p_rx = self._receive(echo.exit - q, frames, receiver)
         pattern2 = p_tx * p_rx
         keep = (echo.amplitude != 0) & (pattern2 > 0)
         # shadow rays: the exit to the receiver, then the entry to the transmitter
@@ -258,6 +262,8 @@ class FacetEchoes:
         if normalized:
             amplitude = np.sqrt(pattern2) * amplitude
         else:
+            if self.beams is not None:  # sqrt(G_t G_r) / G: the radar equation's gain
+                pattern2 = pattern2 * self.beams[receiver][2] ** 2
             amplitude = radar_equation_amplitude(radar, 1.0, r_t, r_r,
                                                  two_way_pattern=pattern2) * amplitude
         # path L = |c − I| + |q − c|, its rate with the image moving as the mirrored platform
@@ -281,6 +287,15 @@ class FacetEchoes:
         hg.deposit(out, (*(i[keep] for i in index), np.full(int(keep.sum()), length)), value,
                    hg.apparent_range(0.5 * path, 0.5 * rate, radar), float(self.ranges[0]),
                    self.step)
+
+    def _receive(self, offset: NDArray, frames: NDArray, receiver: int) -> NDArray:
+        """One-way power pattern of receiver ``receiver`` toward ``offset`` (lanes, 3): the
+        radar's, or its element's own beam (``beams``; its gain applied with the radar
+        equation in :meth:`_deposit_receiver`)."""
+        if self.beams is None:
+            return _pattern(offset, frames, self.radar)[2]
+        u = offset / np.maximum(np.linalg.norm(offset, axis=-1), 1e-300)[:, None]
+        return element_field_pattern(*direction_sines(u, frames), self.beams[receiver][1]) ** 2
 
     def _moved(self, points: NDArray, shapes: NDArray, t: NDArray) -> NDArray:
         """``points`` (lanes, ..., 3) of facets of the selected shapes ``shapes`` (lanes,) at

@@ -171,11 +171,6 @@ class TraceRun:
                 self.scene, self.motion.motion))
         self.reception_warnings = self._reception(where) if self.backscatter else []
         facets = self._facets(where, self.config.physical_optics)
-        if facets is not None and radar.has_element_beams:
-            raise ParameterError(where, "physical_optics", "false with elements that have "
-                                 "their own beam (the facet echoes take the radar's one "
-                                 "pattern; docs/interferometry.md §8)",
-                                 self.config.physical_optics)
         low, high = range_limits(self.scatterers, self.geometry.position,
                                  trajectory.max_speed(), radar, trajectory.duration)
         reach = 0.0
@@ -213,7 +208,7 @@ class TraceRun:
             surface_velocities(self.scene, self.motion.motion)[list(facets.surface_index)],
             self.config.beam_cull,
             self.motion.shape_motions(facets.shape_ids) if self.motion.rotating else None,
-            self.setup.channel_receivers)
+            self.setup.channel_receivers, self.setup.channel_beams)
         self.orders = max(self.config.max_depth, 1 if facets is None else 2)
 
     def _channels(self, where: str, radar: Radar, channels: tuple[int, ...] | None
@@ -241,11 +236,6 @@ class TraceRun:
             raise ParameterError(where, "receiver_offset", "None with a multi-channel radar "
                                  "(its receivers are the radar's: Radar(receivers=...), "
                                  "docs/interferometry.md)", self.config.receiver_offset)
-        if self.config.max_depth > 1 and radar.has_element_beams:
-            raise ParameterError(where, "max_depth", "1 with receive elements that have "
-                                 "their own beam (their multipath captures would need each "
-                                 "element's pattern: not traced yet; docs/interferometry.md)",
-                                 self.config.max_depth)
         transmitters, receivers = radar.channel_offsets()
         slots = radar.firing(np.arange(radar.transmitter_count))
         group = {(transmitters[c], tuple(slots[c])) for c in channels}

@@ -36,6 +36,7 @@ from mitsar.model.doublelobe import (
     interp_theta_table,
     specular_field_table,
 )
+from mitsar.model.elements import element_field_pattern
 from mitsar.model.geometry.antenna import field_pattern
 from mitsar.model.multipath import RaySet, capture_weight
 from mitsar.plugins.integrators.radar.constants import (
@@ -168,6 +169,33 @@ def _field_pattern(direction: Any, az: Any, el: Any, constants: Constants) -> An
                          constants.f32("beta_el"), DRJIT_OPS)
 
 
+def receive_pattern(arrival: Any, axes: tuple, constants: Constants,
+                    sweep_arrays: MultipathSweepArrays, receiver: int) -> Any:
+    """One-way field pattern [-] of receiver ``receiver`` toward the unit ``arrival`` direction
+    (from the receiver): the radar's antenna (``axes``: its azimuth, elevation and boresight
+    axes, world frame), or the receive element's own beam (``sweep_arrays.beams``) on the
+    direction sines in the radar's frame, times ``sqrt(G_t G_r) / G`` with the radar equation
+    (:func:`mitsar.model.elements.channel_amplitude_factor`'s receive part; the transmit
+    elements share the radar's beam, so the launch pattern is the transmitter's)."""
+    if sweep_arrays.beams is None:
+        return _field_pattern(arrival, axes[0], axes[1], constants)
+    _, receive, gain_ratio = sweep_arrays.beams[receiver]
+    u_az, u_el, u_b = (dr.dot(arrival, axis) for axis in axes)
+    pattern = element_field_pattern(u_az, u_el, u_b, receive, DRJIT_OPS)
+    if constants.value("normalized") > 0.0:
+        return pattern
+    return pattern * gain_ratio
+
+
+def receive_front(axes: tuple, sweep_arrays: MultipathSweepArrays, receiver: int) -> Any:
+    """The receiver's boresight (world frame): the radar's (``axes[2]``), or its element's
+    (the third row of its rotation, in the radar's axes ``axes``)."""
+    if sweep_arrays.beams is None or sweep_arrays.beams[receiver][1].identity:
+        return axes[2]
+    row = sweep_arrays.beams[receiver][1].rotation[2]
+    return axes[0] * row[0] + axes[1] * row[1] + axes[2] * row[2]
+
+
 def _order_base(constants: Constants, sweep: Any, order: int, receiver: int = 0) -> Any:
     """Index of bin 0 of the histogram row (sweep, receiver, order)."""
     base = sweep * constants["sweep_stride"] + constants["bins"] * order
@@ -199,8 +227,8 @@ def capture_deposit(constants: Constants, re: Any, im: Any, sweep_arrays: Multip
     length = dr.sqrt(wx * wx + wy * wy + wz * wz)
     inv = 1.0 / length
     wn = mi.Vector3f(f32(wx * inv), f32(wy * inv), f32(wz * inv))
-    amp_rx = _field_pattern(-wn, _column(sweep_arrays.receiver_frame, 0, gs),
-                            _column(sweep_arrays.receiver_frame, 1, gs), constants)
+    amp_rx = receive_pattern(-wn, tuple(_column(sweep_arrays.receiver_frame, j, gs)
+                                        for j in range(3)), constants, sweep_arrays, receiver)
     scale = dr.select(constants["normalized"] > 0.0, constants["norm_const"] * length,
                       constants["amp_const"] * inv)
     amp = f32(scale) * gl(weight_all) * gl(field_all) * gl(amp_tx_all) * amp_rx
@@ -215,7 +243,8 @@ def capture_deposit(constants: Constants, re: Any, im: Any, sweep_arrays: Multip
 def ghost_deposit(scene: Any, table: ShapeTable, constants: Constants, re: Any, im: Any, s: Any,
                   order: int, si: Any, sid: Any, n: Any, d: Any, hit: Any, img: list,
                   rx32: Any, v_rx: Any, v_img: Any, g_axes: tuple, field: Any, amp_tx: Any,
-                  z: Any, planar: bool, receiver: int = 0) -> None:
+                  z: Any, planar: bool, sweep_arrays: MultipathSweepArrays,
+                  receiver: int = 0) -> None:
     """Bistatic double-lobe scattering of the hits back to the receiver (ghosts).
 
     ``σ⁰ = cos θ_i [W_B lobe(ψ_B)^α_B + W_F lobe(ψ_F)^α_F]`` from the material's tables, over
@@ -224,7 +253,6 @@ def ghost_deposit(scene: Any, table: ShapeTable, constants: Constants, re: Any, 
     position (its rows of the histogram); its own shadow ray.
     """
     f64, f32, u32 = mi.Float64, mi.Float, mi.UInt32
-    g_az, g_el, g_b = g_axes
     h = si.p
     to_rx = rx32 - h
     r_r = dr.norm(to_rx)
@@ -244,7 +272,7 @@ def ghost_deposit(scene: Any, table: ShapeTable, constants: Constants, re: Any, 
     af = dr.gather(f32, table.forward_exponent, row)
     f_term = double_lobe_pattern(-dr.dot(ks, d), dr.dot(ks, mirror), wb, wf, ab, af, DRJIT_OPS)
     arrival = -ks
-    ok &= (dr.dot(arrival, g_b) > 0.0) & (f_term > 0.0)
+    ok &= (dr.dot(arrival, receive_front(g_axes, sweep_arrays, receiver)) > 0.0) & (f_term > 0.0)
     ok &= ~scene.ray_test(si.spawn_ray_to(rx32), ok)
     hx, hy, hz = f64(h.x) - img[0], f64(h.y) - img[1], f64(h.z) - img[2]
     s_len = dr.sqrt(hx * hx + hy * hy + hz * hz)
@@ -252,7 +280,7 @@ def ghost_deposit(scene: Any, table: ShapeTable, constants: Constants, re: Any, 
         solid = constants.f32("dq") * constants.f32("slab_width") / f32(s_len)
     else:
         solid = constants.f32("dp") * constants.f32("dq") / z
-    amp_rx = _field_pattern(arrival, g_az, g_el, constants)
+    amp_rx = receive_pattern(arrival, g_axes, constants, sweep_arrays, receiver)
     length = s_len + f64(r_r)
     x_amp = amp_tx * field * amp_rx * dr.sqrt(solid * f_term / (4.0 * math.pi)) / r_r
     scale = dr.select(constants["normalized"] > 0.0,
@@ -315,13 +343,13 @@ def launch(scene: Any, table: ShapeTable, rays: RayArrays, sweep_arrays: Multipa
         v_img = e0 * va0 + e1 * va1 + e2 * va2  # image velocity M v_tx
         weight = dr.zeros(f32, lanes)
         captures = []
-        for rx32 in receivers32 if kk >= 1 else ():
+        for k, rx32 in enumerate(receivers32 if kk >= 1 else ()):
             # 1. Capture test in float32 on every lane: the receiver's launch coordinates seen
             # from the image; the float64 deposit runs on the few captured lanes only.
             wn = dr.normalize(rx32 - mi.Point3f(f32(img[0]), f32(img[1]), f32(img[2])))
             t_r = dr.dot(rx32 - o, d)
             ok = (alive & (dr.dot(wn, e2) > 0.0) & (t_r > 0.0) & (t_r < t_hit)
-                  & (dr.dot(wn, g_axes[2]) < 0.0))
+                  & (dr.dot(wn, receive_front(g_axes, sweep_arrays, k)) < 0.0))
             captured = (capture_weight(dr.dot(wn, e0) - p, constants.f32("dp"), capture,
                                        DRJIT_OPS)
                         * capture_weight(dr.dot(wn, e1) - q, constants.f32("dq"), capture,
@@ -357,7 +385,7 @@ def launch(scene: Any, table: ShapeTable, rays: RayArrays, sweep_arrays: Multipa
         for k, rx32 in enumerate(receivers32 if ghosts and kk >= 1 else ()):
             # 2. Ghosts: bistatic scattering of the hit back to each receiver.
             ghost_deposit(scene, table, constants, re, im, s, kk, si, sid, n, d, hit, img, rx32,
-                          v_rx, v_img, g_axes, field, amp_tx, z, planar, k)
+                          v_rx, v_img, g_axes, field, amp_tx, z, planar, sweep_arrays, k)
         if last:
             dr.eval(counts)
             break

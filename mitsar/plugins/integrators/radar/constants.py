@@ -375,6 +375,11 @@ class MultipathSweepArrays:
         Its components along the ray frame's axes [m/s] (Float32).
     antenna_frame, ray_frame, receiver_frame : Frame
         Transmitting antenna, ray grid and receiving antenna to world rotations.
+    beams : tuple of (ElementBeam, ElementBeam, float), or None
+        Per receiver, its channel's (transmit, receive) element beams and gain ratio
+        (:attr:`~.setup.TraceSetup.channel_beams`): receive elements with a beam of their own
+        weight their captures and ghosts by it (:func:`~.bounce.receive_pattern`); None: the
+        radar's antenna for every receiver.
     """
 
     transmitter: Vector
@@ -386,6 +391,7 @@ class MultipathSweepArrays:
     antenna_frame: Frame
     ray_frame: Frame
     receiver_frame: Frame
+    beams: tuple[tuple[Any, Any, float], ...] | None = None
 
 
 def _padded(chosen: NDArray) -> NDArray:
@@ -538,7 +544,8 @@ def multipath_sweep_arrays(geometry: SweepGeometry, frames: NDArray, setup: Any,
         receivers32=tuple(_upload_vector(mi.Float, rx) for rx in receivers),
         velocity=_upload_vector(mi.Float, vel), ray_velocity=_upload_vector(mi.Float, va),
         antenna_frame=_upload_frames(frames[padded]), ray_frame=_upload_frames(ray_frames),
-        receiver_frame=_upload_frames(setup.receiver_frames[padded]))
+        receiver_frame=_upload_frames(setup.receiver_frames[padded]),
+        beams=setup.channel_beams)
 
 
 def scatterer_arrays(scatterers: ScattererSet) -> ScattererArrays:
