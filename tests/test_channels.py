@@ -171,11 +171,14 @@ def test_trace_of_one_channel_carries_its_phase_centres():
 
 def test_one_trace_serves_every_receiver_of_a_transmitter():
     """The receivers of one transmitter are deposited by one trace (issue 22: "the rays are
-    shared"): the two-receiver trace of a room casts exactly the visibility rays of the
-    one-receiver trace, its channel 0 (at the transmitter) is the monostatic radar's raw data
-    bit for bit, and the block kernel's bistatic half paths agree with the lane kernels'
-    (float64 per lane, a ray per sweep) to < -90 dB, the bound docs/integrator.md states for
-    the monostatic block kernel (its float32 advance; measured -118 dB here)."""
+    shared"): the two-receiver trace of a room casts the one-receiver trace's visibility
+    probes from the transmitter and the same again from the receiver (its own visibility,
+    tests/test_receiver_visibility.py), and the same deposits' shadow rays; its channel 0 (at
+    the transmitter) is the monostatic radar's raw data bit for bit (no probe pair of this
+    room is seen differently 5 cm up), and the block kernel's bistatic half paths agree with
+    the lane kernels' (float64 per lane, a ray per sweep) to < -90 dB, the bound
+    docs/integrator.md states for the monostatic block kernel (its float32 advance; measured
+    -118 dB here)."""
     track = mitsar.Trajectory.linear([14.8, 1.4, 4.5], [0.5, 0.0, 0.0], 64.5 / 250)
     two = mitsar.Radar(receivers=[(0, 0, 0), (0, 0, BASELINE)])
     options = {"density": 60.0, "seed": 2}
@@ -183,7 +186,8 @@ def test_one_trace_serves_every_receiver_of_a_transmitter():
     shared = mitsar.simulate_scene(two, track, SCENE_LOOK, "control_volume", **options)
     lanes = mitsar.simulate_scene(two, track, SCENE_LOOK, "control_volume", block_kernel=False,
                                   visibility_feature=0.0, **options)
-    assert shared.attrs["traced_visibility_rays"] == one.attrs["traced_visibility_rays"] > 0
+    assert shared.attrs["traced_visibility_rays"] == 2 * one.attrs["traced_visibility_rays"] > 0
+    assert shared.attrs["traced_visibility_split"] == one.attrs["traced_visibility_split"]
     assert shared.attrs["traced_shadow_rays"] == one.attrs["traced_shadow_rays"]
     assert np.array_equal(shared["raw"].values[0], one["raw"].values)
     for k in range(2):
@@ -196,18 +200,14 @@ def test_one_trace_serves_every_receiver_of_a_transmitter():
 
 
 def test_traced_channels_refuse_what_is_not_traced_per_channel():
-    """Multipath of channels is traced (tests/test_multipath.py); refused: the single-channel
-    bistatic option (the radar's receivers are its channels) and multipath through receive
-    elements with a beam of their own."""
+    """Multipath and physical optics of channels are traced (tests/test_multipath.py,
+    tests/test_po_channels.py); refused: the single-channel bistatic option (the radar's
+    receivers are its channels)."""
     radar = mitsar.Radar(receivers=[(0, 0, 0), (0, 0, BASELINE)])
     track = mitsar.Trajectory.linear([14.8, 1.4, 4.5], [0.5, 0.0, 0.0], 0.08)
     with pytest.raises(ParameterError, match="receiver_offset"):
         mitsar.simulate_scene(radar, track, SCENE_LOOK, "point_target", max_depth=2,
                               backscatter=False, receiver_offset=[0.0, 0.0, 0.1])
-    beams = mitsar.Radar(receivers=[(0, 0, 0), {"position": (0, 0, BASELINE),
-                                                "off_nadir_deg": 50.0}])
-    with pytest.raises(ParameterError, match="max_depth"):
-        mitsar.simulate_scene(beams, track, SCENE_LOOK, "point_target", max_depth=2)
 
 
 # --- heights through the whole chain ------------------------------------------------------------

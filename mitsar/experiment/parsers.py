@@ -307,7 +307,8 @@ def parse_simulation(t: Table | None) -> TraceOptions:
                            physical_optics=_physical_optics(t),
                            visibility_feature=t.number("visibility_feature", None,
                                                        unit="m", ge=0),
-                           block_kernel=t.boolean("block_kernel", None))
+                           block_kernel=t.boolean("block_kernel", None),
+                           receiver_visibility=t.boolean("receiver_visibility", None))
     t.finish()
     with prefixed(t):  # every field over the defaults, at load, whatever the command (issue 27)
         options.resolve("TraceOptions")

@@ -146,6 +146,11 @@ class TraceOptions:
         monostatic; needs ``backscatter=False``).
     receiver_look : Look or None
         Mounting of the bistatic receiving antenna (``None``: the transmitter's).
+    receiver_visibility : bool
+        Receive channels away from their transmitter: every receiver's own shadow rays for the
+        direct backscatter (default True; docs/interferometry.md §8 "Visibility per
+        receiver"); False: the transmitter's, shared (faster; its deposits differ only near
+        shadow edges that lie between the phase centres).
     sweeps : slice, tuple of int or None
         Sweeps of the acquisition to trace (``None``: all).
     channel : int
@@ -183,6 +188,7 @@ class TraceOptions:
     backscatter: bool | None = None
     receiver_offset: tuple[float, float, float] | None = None
     receiver_look: Look | None = None
+    receiver_visibility: bool | None = None
     sweeps: Any = None
     channel: int | None = None
     scene_params: Mapping[str, Any] | None = None
@@ -283,7 +289,7 @@ class TraceOptions:
         if self.capture not in CAPTURE_KINDS:
             raise ParameterError(where, "capture", f"one of {list(CAPTURE_KINDS)}", self.capture)
         for name in ("ghosts", "block_kernel", "rvp", "normalized", "noise", "deterministic",
-                     "backscatter", "progress"):
+                     "backscatter", "progress", "receiver_visibility"):
             checks.boolean(where, name, getattr(self, name))
         for name in ("plane_normal", "receiver_offset"):
             value = getattr(self, name)
@@ -354,5 +360,6 @@ DEFAULTS = TraceOptions(
     plane_normal=None, slab_width=AZIMUTH_CELL, visibility_feature=DEFAULT_VISIBILITY_FEATURE,
     block_kernel=True, rvp=True, normalized=False, noise=False, orders=None,
     physical_optics=False, deterministic=True, backscatter=True, receiver_offset=None,
-    receiver_look=None, sweeps=None, channel=0, scene_params=None, progress=False)
+    receiver_look=None, receiver_visibility=True, sweeps=None, channel=0, scene_params=None,
+    progress=False)
 """The bottom layer: every default of a trace request."""

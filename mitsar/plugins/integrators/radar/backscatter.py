@@ -195,12 +195,36 @@ def _shadow_ray(scatterers: ScattererArrays, scatterer: Any, target: list, anten
 
 
 def _visible(scene: Any, scatterers: ScattererArrays, sweep_arrays: SweepArrays, sweep: Any,
-             scatterer: Any, active: Any) -> Any:
-    """Shadow test of (``sweep``, ``scatterer``) lanes: True where the segment is free."""
+             scatterer: Any, active: Any, antenna: Any = None) -> Any:
+    """Shadow test of (``sweep``, ``scatterer``) lanes: True where the segment is free; from
+    the transmitter, or from ``antenna`` (a receiver's position per sweep, Float64 Vector)."""
     q, a, _, _, d = _lane_geometry(scatterers, sweep_arrays, sweep, scatterer)
+    if antenna is not None:
+        a, d = _toward(q, [dr.gather(mi.Float64, c, sweep) for c in antenna])
     ray, _ = _shadow_ray(scatterers, scatterer, q, a, d)
     active = active & (ray.maxt > 0.0)
     return active & ~scene.ray_test(ray, active)
+
+
+def _toward(target: list, antenna: list) -> tuple[list, Any]:
+    """``antenna`` and the unit vector (float32) from it to ``target`` (float64 [m])."""
+    o = [qi - ai for qi, ai in zip(target, antenna, strict=True)]
+    inv = 1.0 / dr.sqrt(o[0] * o[0] + o[1] * o[1] + o[2] * o[2])
+    return antenna, mi.Vector3f(*(mi.Float(oi * inv) for oi in o))
+
+
+def _agreed(transmitter: Any, receivers: list) -> Any:
+    """One visibility code for a transmitter and its shadowing receivers (codes 0/1/2 of
+    :func:`_block_visibility`): 0 where the transmitter is hidden at both ends (no echo for
+    any receiver), 2 where it and every receiver see both ends, else 1 (the pair is traced
+    sweep by sweep, each receiver its own ray)."""
+    if not receivers:
+        return transmitter
+    u32 = mi.UInt32
+    every = transmitter == 2
+    for code in receivers:
+        every &= code == 2
+    return dr.select(transmitter == 0, u32(0), dr.select(every, u32(2), u32(1)))
 
 
 def probe(scene: Any, scatterers: ScattererArrays, sweep_arrays: SweepArrays,
@@ -235,17 +259,18 @@ def shared_probe(scene: Any, scatterers: ScattererArrays, sweep_arrays: SweepArr
     idx, _ = padded_lanes(width * probes)  # the extra rays repeat the last one, never read
     probe_index = idx // constants["width"]
     m = dr.gather(u32, found, idx - probe_index * constants["width"] + constants["first"])
-    seen = u32(dr.select(_visible(scene, scatterers, sweep_arrays,
-                                  dr.gather(u32, shared.sweep, probe_index), m, mi.Bool(True)),
-                         1, 0))
-    dr.eval(seen)
+    sweep = dr.gather(u32, shared.sweep, probe_index)
+    seen = [u32(dr.select(_visible(scene, scatterers, sweep_arrays, sweep, m, mi.Bool(True),
+                                   antenna), 1, 0))
+            for antenna in (None, *sweep_arrays.shadowing_receivers)]
+    dr.eval(*seen)
     idx, valid = padded_lanes(width * blocks)  # padding: code 0, never read
     local = idx // constants["blocks"]
     block = idx - local * constants["blocks"]
-    return dr.select(valid, dr.gather(u32, seen, dr.gather(u32, shared.first, block)
-                                      * constants["width"] + local)
-                     + dr.gather(u32, seen, dr.gather(u32, shared.end, block)
-                                 * constants["width"] + local), 0)
+    first = dr.gather(u32, shared.first, block) * constants["width"] + local
+    end = dr.gather(u32, shared.end, block) * constants["width"] + local
+    codes = [dr.gather(u32, rays, first) + dr.gather(u32, rays, end) for rays in seen]
+    return dr.select(valid, _agreed(codes[0], codes[1:]), 0)
 
 
 def trace(scene: Any, scatterers: ScattererArrays, sweep_arrays: SweepArrays,
@@ -275,13 +300,19 @@ def trace(scene: Any, scatterers: ScattererArrays, sweep_arrays: SweepArrays,
 def _block_visibility(scene: Any, scatterers: ScattererArrays, sweep_arrays: SweepArrays,
                       scatterer: Any, first_sweep: Any, last_sweep: Any) -> Any:
     """Visibility code of ``scatterer`` over blocks of sweeps ``first_sweep .. last_sweep``:
-    the number of the two ends that see it (0, 1 or 2; one ray if they are one sweep)."""
+    the number of the two ends that see it (0, 1 or 2; one ray if they are one sweep), and
+    with shadowing receivers the code they agree on (:func:`_agreed`)."""
     u32 = mi.UInt32
-    first = _visible(scene, scatterers, sweep_arrays, first_sweep, scatterer, mi.Bool(True))
     single = first_sweep == last_sweep
-    last = dr.select(single, first,
-                     _visible(scene, scatterers, sweep_arrays, last_sweep, scatterer, ~single))
-    return u32(dr.select(first, 1, 0)) + u32(dr.select(last, 1, 0))
+
+    def code(antenna: Any) -> Any:
+        first = _visible(scene, scatterers, sweep_arrays, first_sweep, scatterer,
+                         mi.Bool(True), antenna)
+        last = dr.select(single, first, _visible(scene, scatterers, sweep_arrays, last_sweep,
+                                                 scatterer, ~single, antenna))
+        return u32(dr.select(first, 1, 0)) + u32(dr.select(last, 1, 0))
+
+    return _agreed(code(None), [code(rx) for rx in sweep_arrays.shadowing_receivers])
 
 
 def _contribute(scene: Any, scatterers: ScattererArrays, sweep_arrays: SweepArrays,
@@ -334,9 +365,11 @@ def _contribute(scene: Any, scatterers: ScattererArrays, sweep_arrays: SweepArra
     #    each receiver of the transmitter into its own histogram rows: at the range (one at
     #    the transmitter) or at half the exact path of a receiver elsewhere, with its rate
     #    (the receiver rides with the antenna: its velocity; the attitude's rate neglected).
-    #    The rays are the transmitter's, shared by its receivers, and so is the two-way pattern
-    #    unless receive elements have their own beams (sweep_arrays.beams): then each channel
-    #    takes f_t f_r sqrt(G_t G_r) / G (channel_amplitude_factor, docs/interferometry.md §8).
+    #    The scatterers and the transmitter's shadow ray are shared by its receivers (each
+    #    away from it casts its own too, with receiver_visibility), and so is the two-way
+    #    pattern unless receive elements have their own beams (sweep_arrays.beams): then each
+    #    channel takes f_t f_r sqrt(G_t G_r) / G (channel_amplitude_factor,
+    #    docs/interferometry.md §8).
     root_sigma = dr.sqrt(sigma)
     equation = dr.select(constants["normalized"] > 0.0, 1.0,
                          f32(constants["radar_const"] * inv_r * inv_r))
@@ -351,14 +384,22 @@ def _contribute(scene: Any, scatterers: ScattererArrays, sweep_arrays: SweepArra
                                            DRJIT_OPS) * root_sigma * equation
             if not normalized:  # sqrt(G_t G_r) / G: the radar equation's gain, per channel
                 amp = amp * gain_ratio
-        path, path_rate = r, rdot
+        path, path_rate, seen = r, rdot, active
         if receiver is not None:
             b = [qi - at_sweep(rx) for qi, rx in zip(q, receiver, strict=True)]
             rb = dr.sqrt(b[0] * b[0] + b[1] * b[1] + b[2] * b[2])
             rbdot = sum(bi * vi for bi, vi in zip(b, v_rel, strict=True)) / rb
             path, path_rate = half_path(r, rb), half_path(rdot, rbdot)
+            if sweep_arrays.receiver_visibility:  # 4'. its own shadow ray (the block's code
+                # 2 holds for every receiver, _agreed)
+                ray_rx, _ = _shadow_ray(scatterers, scatterer, q, *_toward(
+                    q, [at_sweep(c) for c in receiver]))
+                test = active & (ray_rx.maxt > 0.0)
+                if code is not None:
+                    test &= code == 1
+                seen = active & (ray_rx.maxt > 0.0) & ~scene.ray_test(ray_rx, test)
         base = row if k == 0 else row + k * constants["receiver_stride"]
-        deposit(constants, re, im, base, path, path_rate, amp, phase, active)
+        deposit(constants, re, im, base, path, path_rate, amp, phase, seen)
 
 
 def backscatter_chunk(scene: Any, scatterers: ScattererArrays, geometry: SweepGeometry,
@@ -380,6 +421,8 @@ def backscatter_chunk(scene: Any, scatterers: ScattererArrays, geometry: SweepGe
     sweep_arrays = backscatter_sweep_arrays(geometry, frames, radar, chosen,
                                             setup.plane_normals, setup.channel_receivers)
     sweep_arrays.beams = setup.channel_beams
+    sweep_arrays.receiver_visibility = bool(config.receiver_visibility)
+    shadowing = 1 + len(sweep_arrays.shadowing_receivers)  # antennas casting shadow rays
     receivers = len(sweep_arrays.receivers)
     # how far a receiver's half path may differ from the transmitter's range [m]
     apart = max((0.5 * float(np.linalg.norm(rx[chosen] - geometry.position[chosen],
@@ -449,11 +492,11 @@ def backscatter_chunk(scene: Any, scatterers: ScattererArrays, geometry: SweepGe
                 if shared:
                     visibility = shared_probe(scene, scatterers, sweep_arrays, constants,
                                               found, width, len(probe_sweeps), block_count)
-                    statistics["visibility_rays"] += width * len(probe_sweeps)
+                    statistics["visibility_rays"] += shadowing * width * len(probe_sweeps)
                 else:
                     visibility = probe(scene, scatterers, sweep_arrays, constants, found,
                                        width, block_count)
-                    statistics["visibility_rays"] += width * int(
+                    statistics["visibility_rays"] += shadowing * width * int(
                         np.sum(np.minimum(block_sizes, 2)))
                 dr.eval(visibility)
                 first, end, irregular = deposit_runs(sweep_arrays.blocks, constants,
@@ -481,8 +524,8 @@ def backscatter_chunk(scene: Any, scatterers: ScattererArrays, geometry: SweepGe
                 visibility = probe(scene, scatterers, sweep_arrays, constants, found, width,
                                    block_count)
                 dr.eval(visibility)
-                statistics["visibility_rays"] += width * int(np.sum(np.minimum(block_sizes,
-                                                                               2)))
+                statistics["visibility_rays"] += shadowing * width * int(
+                    np.sum(np.minimum(block_sizes, 2)))
                 statistics["visibility_split"] += int(dr.count(visibility == 1)[0])
             trace(scene, scatterers, sweep_arrays, constants, found, lanes, re, im, visibility)
         dr.eval(re, im)

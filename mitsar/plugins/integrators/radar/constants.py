@@ -334,6 +334,9 @@ class SweepArrays:
     beams : tuple of (ElementBeam, ElementBeam, float), or None
         Per receiver, the (transmit, receive) element beams of its channel and gain ratio
         (:attr:`~.setup.TraceSetup.channel_beams`; lane kernels only), or None.
+    receiver_visibility : bool
+        Whether the receivers away from the transmitter cast their own shadow rays (probes
+        and lanes; the trace request's ``receiver_visibility``).
     """
 
     time: Any
@@ -349,11 +352,20 @@ class SweepArrays:
     step: Vector | None = None
     receivers: tuple[Vector | None, ...] = (None,)
     beams: tuple[tuple[Any, Any, float], ...] | None = None
+    receiver_visibility: bool = False
 
     @property
     def bistatic(self) -> bool:
         """Whether some receiver is not at the transmitter."""
         return any(receiver is not None for receiver in self.receivers)
+
+    @property
+    def shadowing_receivers(self) -> tuple[Vector, ...]:
+        """The receivers that cast their own shadow rays: those away from the transmitter,
+        with :attr:`receiver_visibility`."""
+        if not self.receiver_visibility:
+            return ()
+        return tuple(receiver for receiver in self.receivers if receiver is not None)
 
 
 @dataclass
