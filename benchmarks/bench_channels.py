@@ -21,7 +21,8 @@ best of ``--rounds``:
 shared by the receivers, each with its own capture tests and deposits.
 
 ``--visibility`` counts instead the deposits whose shadow ray from a receiver 5 cm above the
-transmitter would disagree with the transmitter's (the tracer shares the transmitter's).
+transmitter would disagree with the transmitter's (what ``receiver_visibility = false``, the
+transmitter's rays shared, gets wrong); ``--shared-visibility`` times the tracer that way.
 
 Measured on this 2-core machine (shared by other sessions, load 1.8-2.1), ``--rounds 9``:
 one receiver 1788 channels x sweeps/s (143 ms), two 2290 (224 ms): the tracer's wall 1.56x
@@ -47,6 +48,10 @@ receiver 94 ms, two 145 ms: 1.53x (alternated best of 21: 1.43x, median 1.50x); 
 ``--max-depth 3`` 1.25x (300 -> 376 ms; kernels 1.14x).
 ``--visibility``: ``control_volume`` 0 of 851,855 in-beam deposits; the room test's 0.2 m box
 on a floor 154 of 406,278 (0.038 %).
+27 November (third session): every receiver now casts its own shadow rays by default (its
+block probes: 1.4 M rays here), a second receiver 142 -> 150 ms (1.46x -> 1.54x one receiver,
+alternated best of 15; ``--shared-visibility`` for the old figure). FFBP: two channels 1.94x
+one (BPA 2.07x).
 
 Run: ``python benchmarks/bench_channels.py [--scene NAME] [--sweeps N] [--rounds R]
 [--visibility [--density D]]``.
@@ -177,6 +182,9 @@ def main() -> None:
                         help="trace multipath too (hits per ray; the rays are shared by the "
                              "receivers, each its own captures)")
     parser.add_argument("--ghosts", action="store_true", help="with --max-depth > 1")
+    parser.add_argument("--shared-visibility", action="store_true",
+                        help="the receivers share the transmitter's shadow rays "
+                             "(receiver_visibility = false; default: each its own)")
     args = parser.parse_args()
     warnings.simplefilter("ignore")
     radars = {"1 receiver": mitsar.Radar(), "2 receivers": mitsar.Radar(receivers=RECEIVERS)}
@@ -194,7 +202,8 @@ def main() -> None:
     grid = mitsar.grid.SlantGrid(along_track=[-0.2, 0.31, 0.002],
                                  slant_range=[7.3, 8.32, 0.004])
     rows = []
-    options = {"max_depth": args.max_depth, "ghosts": args.ghosts}
+    options = {"max_depth": args.max_depth, "ghosts": args.ghosts,
+               "receiver_visibility": not args.shared_visibility}
     walls = _traced(radars, track, scene, args.rounds, options)
     for name, radar in radars.items():
         channels = radar.channel_count

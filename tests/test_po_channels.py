@@ -22,6 +22,13 @@ from test_po_multipath import _ply, _setup
 BASELINE = 0.05  # receiver above the transmitter [m] (docs/interferometry.md)
 
 
+def _plate_axes(normal):
+    """The in-plane axes of ``_plate_scene``'s plate of unit normal ``normal``."""
+    u = np.cross(normal, [1.0, 0.0, 0.0])
+    u /= np.linalg.norm(u)
+    return u, np.cross(normal, u)
+
+
 def _kirchhoff(centre, u, w, side, transmitter, receiver, k, points=400, weight=None):
     """``sum exp(j k (|x - t| + |x - r|)) dA`` over a square plate (midpoint rule, 0.125 mm
     cells at 5 cm: 1/25 of a wavelength), each point times ``weight(x)`` if given."""
@@ -54,10 +61,7 @@ def test_a_plates_channels_follow_its_bistatic_kirchhoff_integral():
     np.testing.assert_allclose(values[0], alone["raw"].values, rtol=0,
                                atol=1e-12 * abs(values[0]).max())
     # closed form at the middle sweep (5 sweeps over 4 mm: the ratio moves < 1e-4 dB)
-    normal = -boresight
-    u = np.cross(normal, [1.0, 0.0, 0.0])
-    u /= np.linalg.norm(u)
-    w = np.cross(normal, u)
+    u, w = _plate_axes(-boresight)
     k = 2 * math.pi / radar.wavelength
     receivers = [antenna, antenna + [0.0, 0.0, BASELINE]]
     fields = [_kirchhoff(centre, u, w, side, antenna, r, k) for r in receivers]
@@ -129,10 +133,7 @@ def test_a_receive_element_weights_its_plate_echo_by_its_own_beam():
     centre = antenna + 5.0 * boresight
     scene = _plate_scene(mi, centre, -boresight, side)
     values = mitsar.simulate_scene(radar, track, look, scene, physical_optics=True)["raw"].values
-    normal = -boresight
-    u = np.cross(normal, [1.0, 0.0, 0.0])
-    u /= np.linalg.norm(u)
-    w = np.cross(normal, u)
+    u, w = _plate_axes(-boresight)
     k = 2 * math.pi / radar.wavelength
     receivers = [antenna, antenna + [0.0, 0.0, BASELINE]]
     frame = antenna_frame(look)

@@ -221,7 +221,8 @@ class TraceRun:
         sweep; each channel's receiver is one of :attr:`TraceSetup.channel_receivers`: None
         where it is the transmitter, else its position per sweep (its direct backscatter is
         then deposited at half the exact path). One trace serves them all: the transmitter's
-        rays are shared (docs/interferometry.md §8). Under TDM-MIMO (:attr:`Radar.is_tdm`)
+        rays are shared, each receiver away from it adding its own shadow rays
+        (``receiver_visibility``; docs/interferometry.md §8). Under TDM-MIMO (:attr:`Radar.is_tdm`)
         only the sweeps of the transmitter's slot are traced (:meth:`Radar.firing`), each from
         its own track point. A single-channel radar: the track itself.
         """

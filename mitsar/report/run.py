@@ -520,17 +520,21 @@ def _interferometry(run: RunFolder, experiment: Experiment, result: PipelineResu
     focused = [name for name, image in result.images.items()
                if "channel" in image["image"].dims]
     if not focused:
-        run.warn("interferometry: not formed: no image of the channels was focused")
+        run.warn("interferometry: not formed: no image of the channels was focused (every "
+                 "algorithm failed: see the warnings above; -a bpa is the default)")
         return
-    algorithm = "bpa" if "bpa" in focused else focused[0]
-    image = result.images[algorithm]
     start = time.perf_counter()
-    try:
-        formed = run_interferometry(image, experiment.interferometry, where="interferometry",
-                                    quiet=not progress, scene=experiment.scene)
-        write_interferometry(run.out / INTERFEROMETRY_FOLDER, formed, overwrite=run.overwrite)
-    except MitsarError as error:
-        run.warn(f"interferometry: not formed: {error}")
+    for algorithm in sorted(focused, key=lambda name: name != "bpa"):  # BPA's first
+        try:
+            formed = run_interferometry(result.images[algorithm], experiment.interferometry,
+                                        where="interferometry", quiet=not progress,
+                                        scene=experiment.scene)
+            write_interferometry(run.out / INTERFEROMETRY_FOLDER, formed,
+                                 overwrite=run.overwrite)
+            break
+        except MitsarError as error:
+            run.warn(f"interferometry: not formed from the {algorithm} image: {error}")
+    else:
         return
     run.step("interferometry", start)
     prefix = f"{INTERFEROMETRY_FOLDER}/"

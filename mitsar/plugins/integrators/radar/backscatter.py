@@ -177,15 +177,17 @@ def _lane_geometry(scatterers: ScattererArrays, sweep_arrays: SweepArrays, sweep
 
 
 def _shadow_ray(scatterers: ScattererArrays, scatterer: Any, target: list, antenna: list,
-                direction: Any) -> tuple[Any, Any]:
+                direction: Any, lit: Any = None) -> tuple[Any, Any]:
     """The shadow segment antenna -> point just above the surface of ``scatterer`` (at
     ``target``, float64 [m]) on the antenna's side (docs/integrator.md, "Shadow rays"), and the
-    scatterer's normal; ``direction``: the unit vector antenna -> scatterer."""
+    scatterer's normal; ``direction``: the unit vector antenna -> scatterer. ``lit``: the
+    transmitter's direction, whose side a receiver's segment ends on (the lit face: a
+    receiver across the surface's plane does not see it)."""
     f32 = mi.Float
     n = mi.Vector3f(*(dr.gather(f32, c, scatterer) for c in scatterers.normal))
     q32 = mi.Point3f(*(f32(qi) for qi in target))
     a32 = mi.Point3f(*(f32(ai) for ai in antenna))
-    side = dr.select(dr.dot(n, direction) > 0.0, -1.0, 1.0)
+    side = dr.select(dr.dot(n, direction if lit is None else lit) > 0.0, -1.0, 1.0)
     eps = SURFACE_OFFSET * (1.0 + dr.max(dr.abs(q32)))
     seg = (q32 + n * (side * eps)) - a32
     dist = dr.norm(seg)
@@ -199,9 +201,11 @@ def _visible(scene: Any, scatterers: ScattererArrays, sweep_arrays: SweepArrays,
     """Shadow test of (``sweep``, ``scatterer``) lanes: True where the segment is free; from
     the transmitter, or from ``antenna`` (a receiver's position per sweep, Float64 Vector)."""
     q, a, _, _, d = _lane_geometry(scatterers, sweep_arrays, sweep, scatterer)
-    if antenna is not None:
+    lit = None
+    if antenna is not None:  # its segment ends on the transmitter's (lit) side
+        lit = d
         a, d = _toward(q, [dr.gather(mi.Float64, c, sweep) for c in antenna])
-    ray, _ = _shadow_ray(scatterers, scatterer, q, a, d)
+    ray, _ = _shadow_ray(scatterers, scatterer, q, a, d, lit)
     active = active & (ray.maxt > 0.0)
     return active & ~scene.ray_test(ray, active)
 
@@ -393,7 +397,7 @@ def _contribute(scene: Any, scatterers: ScattererArrays, sweep_arrays: SweepArra
             if sweep_arrays.receiver_visibility:  # 4'. its own shadow ray (the block's code
                 # 2 holds for every receiver, _agreed)
                 ray_rx, _ = _shadow_ray(scatterers, scatterer, q, *_toward(
-                    q, [at_sweep(c) for c in receiver]))
+                    q, [at_sweep(c) for c in receiver]), lit=d)
                 test = active & (ray_rx.maxt > 0.0)
                 if code is not None:
                     test &= code == 1
@@ -412,10 +416,12 @@ def backscatter_chunk(scene: Any, scatterers: ScattererArrays, geometry: SweepGe
     ``acquisition`` holds the acquisition's constants (:func:`~.constants.backscatter_constants`);
     the chunk's bounds and launch offsets replace theirs. ``statistics`` counts pairs,
     candidate pairs, shadow rays (contributions: lanes in the beam and the bin grid), launches,
-    ``visibility_rays`` (rays of the block probes) and ``visibility_split`` (candidate x block
-    pairs whose ends disagree). ``visibility_block`` caps the sweeps that share shadow rays
-    (e.g. the sweeps between two scene changes; default: the chunk); blocks are cut by
-    :func:`~mitsar.model.geometry.visibility.visibility_blocks` at ``config.visibility_feature``.
+    ``visibility_rays`` (rays of the block probes, every shadowing receiver's included) and
+    ``visibility_split`` (candidate x block pairs traced sweep by sweep: their ends, or the
+    transmitter and a receiver, disagree). ``visibility_block`` caps the sweeps that share
+    shadow rays (e.g. the sweeps between two scene changes; default: the chunk); blocks are
+    cut by :func:`~mitsar.model.geometry.visibility.visibility_blocks` at
+    ``config.visibility_feature``.
     """
     count = scatterers.count
     sweep_arrays = backscatter_sweep_arrays(geometry, frames, radar, chosen,

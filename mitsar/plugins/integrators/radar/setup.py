@@ -44,8 +44,10 @@ class TraceSetup:
     channel_receivers : tuple of (ndarray, shape (sweeps, 3), or None), or None
         The receivers of one transmitter of a multi-channel radar (docs/interferometry.md):
         per receiver its phase centre per sweep [m], or None for one at the transmitter.
-        One trace serves them all: the transmitter's rays (beam, visibility) are shared, and
-        each receiver's direct backscatter is deposited at half its exact path
+        One trace serves them all: the transmitter's scatterers, beam and shadow rays are
+        shared (each receiver away from it casts its own shadow rays too with
+        ``receiver_visibility``), and each receiver's direct backscatter is deposited at half
+        its exact path
         ``(|t - q| + |q - r|) / 2`` into its own histogram rows. None: one monostatic
         receiver.
     channel_beams : tuple of (ElementBeam, ElementBeam, float), or None
