@@ -264,9 +264,11 @@ def shared_probe(scene: Any, scatterers: ScattererArrays, sweep_arrays: SweepArr
     probe_index = idx // constants["width"]
     m = dr.gather(u32, found, idx - probe_index * constants["width"] + constants["first"])
     sweep = dr.gather(u32, shared.sweep, probe_index)
-    seen = [u32(dr.select(_visible(scene, scatterers, sweep_arrays, sweep, m, mi.Bool(True),
-                                   antenna), 1, 0))
-            for antenna in (None, *sweep_arrays.shadowing_receivers)]
+    lit = _visible(scene, scatterers, sweep_arrays, sweep, m, mi.Bool(True))
+    # a receiver's ray only where the transmitter's sees (elsewhere no echo: _agreed)
+    seen = [u32(dr.select(visible, 1, 0)) for visible in (lit, *(
+        _visible(scene, scatterers, sweep_arrays, sweep, m, lit, antenna)
+        for antenna in sweep_arrays.shadowing_receivers))]
     dr.eval(*seen)
     idx, valid = padded_lanes(width * blocks)  # padding: code 0, never read
     local = idx // constants["blocks"]
@@ -309,14 +311,20 @@ def _block_visibility(scene: Any, scatterers: ScattererArrays, sweep_arrays: Swe
     u32 = mi.UInt32
     single = first_sweep == last_sweep
 
-    def code(antenna: Any) -> Any:
-        first = _visible(scene, scatterers, sweep_arrays, first_sweep, scatterer,
-                         mi.Bool(True), antenna)
+    def ends(antenna: Any, lit: tuple[Any, Any]) -> tuple[Any, Any]:
+        first = _visible(scene, scatterers, sweep_arrays, first_sweep, scatterer, lit[0],
+                         antenna)
         last = dr.select(single, first, _visible(scene, scatterers, sweep_arrays, last_sweep,
-                                                 scatterer, ~single, antenna))
-        return u32(dr.select(first, 1, 0)) + u32(dr.select(last, 1, 0))
+                                                 scatterer, ~single & lit[1], antenna))
+        return first, last
 
-    return _agreed(code(None), [code(rx) for rx in sweep_arrays.shadowing_receivers])
+    def code(seen: tuple[Any, Any]) -> Any:
+        return u32(dr.select(seen[0], 1, 0)) + u32(dr.select(seen[1], 1, 0))
+
+    # a receiver's ray only where the transmitter's sees (elsewhere no echo: _agreed)
+    transmitter = ends(None, (mi.Bool(True), mi.Bool(True)))
+    return _agreed(code(transmitter), [code(ends(rx, transmitter))
+                                       for rx in sweep_arrays.shadowing_receivers])
 
 
 def _contribute(scene: Any, scatterers: ScattererArrays, sweep_arrays: SweepArrays,
