@@ -58,6 +58,7 @@ def test_a_receiver_behind_an_occluder_gets_no_echo(block_kernel):
     raw = mitsar.simulate_scene(RADAR, TRACK, LOOK, scene, block_kernel=block_kernel, **OPTIONS)
     energy = _energy(raw["raw"].values.reshape(2, -1))
     assert energy[0] > 0 and energy[1] == 0.0
+    assert raw.attrs["receiver_visibility"] == 1   # recorded with the product
     shared = mitsar.simulate_scene(RADAR, TRACK, LOOK, scene, block_kernel=block_kernel,
                                    receiver_visibility=False, **OPTIONS)
     energy = _energy(shared["raw"].values.reshape(2, -1))

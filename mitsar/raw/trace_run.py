@@ -366,6 +366,7 @@ class TraceRun:
                 **({"reception_warnings": "\n".join(self.reception_warnings)}
                    if self.reception_warnings else {}),
                 "receiver_offset": [float(v) for v in self.setup.receiver_offset],
+                "receiver_visibility": int(self.config.receiver_visibility),
                 "rays_per_sweep": 0 if self.setup.rays is None else len(self.setup.rays),
                 "trajectory_kind": (self.recorded or self.trajectory).kind,
                 "trajectory_straight": int((self.recorded or self.trajectory).is_straight),
