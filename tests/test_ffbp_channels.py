@@ -67,7 +67,7 @@ def test_ffbp_focuses_every_channel_as_bpa_on_a_straight_track(receiver):
 def _turn_raw(radar, turn_deg=20.0, radius=10.0):
     """A left turn (default the 20-degree turn of radius 10 m of tests/test_ffbp_turns.py),
     the point broadside at its middle: "pixel" band selection, each pixel's band summed from
-    sub-apertures of any stage (mitsar.focus.ffbp_stages.merge_band)."""
+    sub-apertures of any stage (mitsar.focus.ffbp_band.merge_band)."""
     turn = math.radians(turn_deg)
     points = [[12.0, 1.4, HEIGHT], [15.0, 1.4, HEIGHT],
               [15.0 + 3 * math.cos(turn), 1.4 + 3 * math.sin(turn), HEIGHT]]
@@ -88,7 +88,7 @@ def _turn_raw(radar, turn_deg=20.0, radius=10.0):
 def test_ffbp_channels_on_a_turn_with_a_tapered_window(receiver, turn, radius, resolution,
                                                        windows):
     """The Hamming window weights a whole sub-aperture by reading its image at shifted
-    direction cosines (mitsar.focus.ffbp_stages._windowed_piece). For the receiver's channel
+    direction cosines (mitsar.focus.ffbp_band._windowed_piece). For the receiver's channel
     the step also moves half its path, so the read moves in range too, and the receiver's
     phase ramp turns at kappa times the transmitter's (_receiver_read). Measured, oblique
     receiver on the 20-degree turn: channel 0 -41.8 dB, the receiver's -41.6 dB; without the

@@ -3,7 +3,7 @@
 There the processed band is cut per pixel and sweep on the pixel's aspect angle (BPA's
 "pixel" band selection with aspect frames, docs/focusing.md "Curved tracks"); FFBP builds
 unwindowed sub-aperture images and sums each pixel's band from whole sub-apertures of any
-stage plus single sweeps at its two edges (mitsar.focus.ffbp_stages.merge_band,
+stage plus single sweeps at its two edges (mitsar.focus.ffbp_band.merge_band,
 docs/focusing.md § FFBP). The reference is exact BPA on the same grid; the error is
 ``20 log10(||ffbp - bpa|| / ||bpa||)`` over the image, and the bound -35 dB is the issue's
 (FFBP's bound on straight tracks). Measured: -46 to -50 dB, every case here.
@@ -110,7 +110,7 @@ def test_varying_speed_at_a_chosen_resolution_matches_exact_bpa(varying_speed, r
 def test_tapered_window_on_a_turn_matches_exact_bpa(right_turn):
     """Hamming at 5 cm: a cosine-series window weights a whole sub-aperture's sweeps by
     reading its image at shifted direction cosines (one read per harmonic,
-    ffbp_stages._windowed_piece). Measured -46 dB (a constant weight per sub-aperture
+    ffbp_band._windowed_piece). Measured -46 dB (a constant weight per sub-aperture
     gave -15 dB)."""
     raw, target = right_turn
     fast, exact, _ = _both(raw, _plane(target), azimuth_resolution=0.05, window="hamming")

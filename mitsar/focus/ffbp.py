@@ -50,7 +50,7 @@ transmitter's (centres c), each sub-aperture also keeps its receiver's centre d,
 sums BPA's bistatic per-pulse terms, every image is demodulated by half the node's path
 ``(|x - c| + |x - d|) / 2`` instead of rho (step 3), and a merge rotates by half the change of
 both ranges (step 4); a tapered window's shifted reads move in range too, so that half the
-path stays (:func:`mitsar.focus.ffbp_stages._receiver_read`).
+path stays (:func:`mitsar.focus.ffbp_band._receiver_read`).
 
 The azimuth window, whole beam or a band on a straight uniform track (a Doppler band-pass
 first, as BPA): each sweep is weighted at the first-stage nodes exactly as BPA weights it at a
@@ -65,10 +65,10 @@ images hold every sweep unweighted, merging stops at the longest pixel band, eve
 kept, and each pixel sums its own band of sweeps ``[k_1, k_2)`` (bisection on its aspect
 offset) from the sub-apertures of any stage that lie wholly inside it, the largest first
 (segment-tree fashion), and from single sweeps at its two edges through BPA's own per-pulse
-sum and window test (:func:`mitsar.focus.ffbp_stages.merge_band`): the cut is BPA's to the
+sum and window test (:func:`mitsar.focus.ffbp_band.merge_band`): the cut is BPA's to the
 sweep. A tapered (cosine-series) window weights a whole sub-aperture's sweeps by reading its
 demodulated image at shifted direction cosines, one read per harmonic
-(:func:`mitsar.focus.ffbp_stages._windowed_piece`). The frames and sweep ranges are BPA's
+(:func:`mitsar.focus.ffbp_band._windowed_piece`). The frames and sweep ranges are BPA's
 (:func:`_band_setup`), on grids interpolated from a checked sub-grid (:func:`_grid_band_setup`).
 Measured -46 to -50 dB from exact BPA at 5 and 10 cm on 20-degree turns, U-turns and an
 accelerating pass (``tests/test_ffbp_turns.py``).
@@ -104,11 +104,11 @@ from mitsar.focus.aperture import aspect_frames, sweep_window, track_coordinates
 from mitsar.focus.backprojection import kernel_tables
 from mitsar.focus.bp_setup import Prepared, aperture_weights, normalise, prepare
 from mitsar.focus.bpa import curved_sweep_range
+from mitsar.focus.ffbp_band import merge_band
 from mitsar.focus.ffbp_stages import (
     LANE_NODES,
     Stage,
     first_stage,
-    merge_band,
     merge_nodes,
     merge_points,
     node_frames,
@@ -215,7 +215,7 @@ def focus_ffbp(raw: xr.Dataset, layout_or_pixels: dict | NDArray, *, half_width:
     kernel_half_width, kernel_window = bp.kernel_half_width, bp.kernel_window
     # A band narrower than the beam cut per pixel and sweep ("pixel" band selection: curved
     # tracks, varying speed): the sub-aperture images hold every sweep, unweighted, and each
-    # pixel sums its own band at the end (_band_setup, ffbp_stages.merge_band).
+    # pixel sums its own band at the end (_band_setup, ffbp_band.merge_band).
     band = None
     if bp.band_selection == "pixel" and half_width < bp.beam_half_width:
         band = _band_setup(bp, layout_or_pixels, pixels, half_width)
@@ -550,7 +550,7 @@ def _plan(sweeps: int, settings: dict, longest: int, cap: int | None = None
     Merging stops at ``final_subapertures`` or before a stage whose sub-apertures would hold
     more than ``longest`` sweeps (:func:`_longest_subaperture`) or more than ``cap`` (the
     longest pixel band: a sub-aperture longer than every band is never a piece of one,
-    :func:`mitsar.focus.ffbp_stages.merge_band`).
+    :func:`mitsar.focus.ffbp_band.merge_band`).
     """
     size = settings["first_subaperture"]
     if size > longest:
