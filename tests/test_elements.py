@@ -175,16 +175,6 @@ def test_elements_validate_round_trip_and_parse_from_toml():
             {"position": [0, 0, 0]}, {"position": [0, 0, 0.05], "boresight": [0, 1]}]}})
 
 
-def test_the_ray_tracer_refuses_transmit_elements_with_their_own_beam():
-    """Receive elements with their own beam are traced (tests/test_traced_elements.py); a
-    transmit element's own beam is refused (the tracer's cull and shadow rays follow the
-    radar's antenna), naming what to do."""
-    radar = mitsar.Radar(transmitters=[{"position": (0, 0, 0), "off_nadir_deg": 40.0}],
-                         receivers=[(0, 0, 0), (0, 0, 0.05)])
-    with pytest.raises(ParameterError, match=r"radar.transmitters.*simulate_point_targets"):
-        mitsar.simulate_scene(radar, TRACK, LOOK, "control_volume")
-
-
 def test_channel_amplitude_factor_runs_on_drjit_arrays_as_on_numpy():
     """The tracer's entry point (docs/interferometry.md §8): the same formula with
     DRJIT_OPS on Float32 sines, within float32 rounding (1e-6) of NumPy's float64."""

@@ -240,16 +240,18 @@ class ElementBeam(NamedTuple):
     identity: bool
 
 
-def element_beam(element: Element, beamwidths: tuple[float, float], look: Look
-                 ) -> ElementBeam:
+def element_beam(element: Element, beamwidths: tuple[float, float], look: Look,
+                 frame: NDArray | None = None) -> ElementBeam:
     """The :class:`ElementBeam` of ``element`` mounted with ``look`` on a radar whose antenna
     has ``beamwidths`` = (azimuth, elevation) [rad] (:attr:`Radar.azimuth_beamwidth`,
-    :attr:`Radar.elevation_beamwidth`: an element without its own takes the radar's)."""
+    :attr:`Radar.elevation_beamwidth`: an element without its own takes the radar's).
+    ``frame``: the antenna-to-body rotation the direction sines are taken in (default the
+    look's, the radar's antenna; the ray tracer takes a transmit element's own)."""
     az = (beamwidths[0] if element.azimuth_beamwidth_deg is None
           else math.radians(element.azimuth_beamwidth_deg))
     el = (beamwidths[1] if element.elevation_beamwidth_deg is None
           else math.radians(element.elevation_beamwidth_deg))
-    radar_frame = look.antenna_to_body()
+    radar_frame = look.antenna_to_body() if frame is None else np.asarray(frame, dtype=float)
     rotation = element_frame(element, look).T @ radar_frame
     identity = bool(np.allclose(rotation, np.eye(3), rtol=0.0, atol=1e-12))
     if identity:

@@ -327,13 +327,15 @@ class Radar(metaclass=KnownFields):
         return any(e.has_own_beam for e in (self.receiver_elements or ())
                    + (self.transmitter_elements or ()))
 
-    def channel_beams(self, look: Look) -> tuple[tuple[ElementBeam, ElementBeam], ...]:
+    def channel_beams(self, look: Look, frame: NDArray[np.float64] | None = None
+                      ) -> tuple[tuple[ElementBeam, ElementBeam], ...]:
         """(transmit, receive) :class:`~mitsar.model.elements.ElementBeam` of each channel
         with the antenna mounted by ``look``: what the kernels need for
-        :func:`mitsar.model.elements.channel_amplitude_factor`."""
+        :func:`mitsar.model.elements.channel_amplitude_factor` (``frame``: the antenna frame
+        the direction sines are taken in, default the look's; :func:`element_beam`)."""
         transmitters, receivers = self.channel_elements()
         widths = (self.azimuth_beamwidth, self.elevation_beamwidth)
-        return tuple((element_beam(t, widths, look), element_beam(r, widths, look))
+        return tuple((element_beam(t, widths, look, frame), element_beam(r, widths, look, frame))
                      for t, r in zip(transmitters, receivers, strict=True))
 
     def channel_boresights(self, look: Look) -> NDArray[np.float64]:

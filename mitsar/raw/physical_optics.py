@@ -102,7 +102,8 @@ class FacetEchoes:
         ``sqrt(G_t G_r) / G`` (the integrator's ``channel_beams``): a receive element with a
         beam of its own weights its echoes by its own one-way pattern toward the last
         reflection point and its gain (:func:`mitsar.model.elements.channel_amplitude_factor`'s
-        receive part); the transmit elements share the radar's beam (the tracer refuses others).
+        receive part), in the frame of the transmitter's antenna (``frames``, ``radar``: the
+        radar's, or the transmit element's own beam that the tracer follows).
     """
 
     def __init__(self, radar: Radar, scene: Any, facets: FacetSet, geometry: dict,

@@ -24,6 +24,7 @@ from tqdm.auto import tqdm
 from mitsar.budget import require_memory
 from mitsar.errors import MitsarWarning, ParameterError
 from mitsar.model import histogram as hg
+from mitsar.model.elements import element_beam, element_frame
 from mitsar.model.geometry.attitude import (
     Look,
     antenna_frame,
@@ -118,7 +119,6 @@ class TraceRun:
             raise ParameterError(where, "look", "a mitsar.Look", type(look))
         options.resolve(where)  # the caller's errors before any scene is loaded
         radar.check_prf(trajectory.max_speed())
-        _require_shared_transmit_beams(radar, where)
         total = sweep_count(radar, trajectory.duration)
         if total < 1:
             raise ParameterError(where, "trajectory.duration",
@@ -145,12 +145,20 @@ class TraceRun:
         self.recorded = resolve_navigation(where, trajectory, navigation)
         self.recorded_geometry = (None if self.recorded is None
                                   else sweep_geometry(radar, self.recorded, look, total))
-        self.frames = antenna_frame(look, *self.geometry.attitude.T)
+        # The antenna the tracer follows: the radar's, or a transmit element's own beam
+        # (_transmit_beam: its frame, beamwidths and gain for the candidates, the beam cull,
+        # the rays and the shadow rays; each receiver its own element beam relative to it).
+        self.trace_radar, self.antenna_body = _transmit_beam(radar, look, self.config.channel
+                                                             if channels is None else
+                                                             channels[0])
+        self.frames = (antenna_frame(look, *self.geometry.attitude.T)
+                       if self.antenna_body is None
+                       else body_to_world(*self.geometry.attitude.T) @ self.antenna_body)
         receiver_look = self.config.receiver_look
         rx_frames = (None if receiver_look is None
                      else antenna_frame(receiver_look, *self.geometry.attitude.T))
-        self.setup = make_setup(radar, self.frames, self.config, self.config.receiver_offset,
-                                rx_frames)
+        self.setup = make_setup(self.trace_radar, self.frames, self.config,
+                                self.config.receiver_offset, rx_frames)
         self.channels, self.trace_geometry = self._channels(where, radar, channels)
         self.channel = None if self.channels is None else self.channels[0]
         self.backscatter = self.config.backscatter
@@ -203,7 +211,7 @@ class TraceRun:
         # same shapes, so no specular path through them is counted twice.
         # (from the transmitter's phase centre; each receive channel its own echoes)
         self.facet_echoes = None if facets is None else FacetEchoes(
-            radar, self.scene, facets, self.trace_geometry, self.frames, self.ranges,
+            self.trace_radar, self.scene, facets, self.trace_geometry, self.frames, self.ranges,
             self.config.bins_per_cell, max(1, self.config.max_depth - 1),
             surface_velocities(self.scene, self.motion.motion)[list(facets.surface_index)],
             self.config.beam_cull,
@@ -250,11 +258,13 @@ class TraceRun:
         transmitter = self.geometry.position + body_offset_to_world(transmitters[channel],
                                                                     *attitude)
         beams = None
-        if radar.has_element_beams:  # receive elements with their own pattern or boresight
+        if radar.has_element_beams:  # elements with their own pattern or boresight, in the
+            # frame of the antenna traced (the radar's or the transmit element's)
             beams = tuple((transmit, receive, math.sqrt(transmit.gain * receive.gain)
-                           / radar.antenna_gain)
+                           / self.trace_radar.antenna_gain)
                           for c in channels
-                          for transmit, receive in (radar.channel_beams(self.look)[c],))
+                          for transmit, receive in (
+                              radar.channel_beams(self.look, self.antenna_body)[c],))
         self.setup = dataclasses.replace(self.setup, channel_receivers=tuple(
             None if receivers[c] == transmitters[c]
             else self.geometry.position + body_offset_to_world(receivers[c], *attitude)
@@ -267,7 +277,7 @@ class TraceRun:
         ``max_range`` or in the near field (:func:`scene_reception_warnings`); the traced
         product records the sentences (``reception_warnings``)."""
         messages = scene_reception_warnings(
-            self.radar, self.scatterers.position, self.scatterers.point_target_count,
+            self.trace_radar, self.scatterers.position, self.scatterers.point_target_count,
             self.trace_geometry.position[self.sweeps], self.frames[self.sweeps],
             reference=self.geometry.position[self.sweeps], channels=self.channels,
             attitude=body_to_world(*self.geometry.attitude[self.sweeps].T))  # per channel
@@ -308,7 +318,7 @@ class TraceRun:
             source = self._moving_chunks(rvp, normalized, progress)
         else:
             source = self.integrator.trace_histograms(
-                self.scene, self.trace_geometry, self.radar, self.frames, self.scatterers,
+                self.scene, self.trace_geometry, self.trace_radar, self.frames, self.scatterers,
                 self.grid,
                 sweeps=self.sweeps, config=self.config, rvp=rvp, normalized=normalized,
                 progress=progress, setup=self.setup, backscatter=self.backscatter, reuse=reuse)
@@ -337,7 +347,7 @@ class TraceRun:
                 middle = float(self.geometry.slow_time[sweep]) + self.radar.sweep_duration / 2
                 self.motion.set_time(middle)
                 yield from self.integrator.trace_histograms(
-                    self.scene, self.trace_geometry, self.radar, self.frames,
+                    self.scene, self.trace_geometry, self.trace_radar, self.frames,
                     self.motion.scatterers_at(self.scatterers, middle),
                     self.grid, sweeps=np.array([sweep]), config=self.config, rvp=rvp,
                     normalized=normalized, progress=False, setup=self.setup,
@@ -469,18 +479,23 @@ def _radar_integrator(scene: Any, mi: Any) -> Any:
     return _DEFAULT_INTEGRATORS[id(scene)][1]
 
 
-def _require_shared_transmit_beams(radar: Radar, where: str) -> None:
-    """Refuse transmit elements with their own pattern or boresight (ping-pong: every
-    element transmits): the tracer's candidates, beam cull and shadow rays follow the radar's
-    antenna, the transmitter's beam shared by its receivers. Receive elements may have their
-    own (docs/interferometry.md §8)."""
-    transmitters, _ = radar.channel_elements()
-    for i, element in enumerate(transmitters):
-        if element.has_own_beam:
-            raise ParameterError(
-                where, "radar.receivers" if radar.ping_pong else "radar.transmitters",
-                "transmit elements without their own pattern or boresight in the ray tracer "
-                "(its beam cull and shadow rays follow the radar's antenna; receive elements "
-                "may have their own, and simulate_point_targets models both)",
-                f"channel {i}: {element}")
+def _transmit_beam(radar: Radar, look: Look, channel: int) -> tuple[Radar, NDArray | None]:
+    """The antenna the tracer follows for the channels of ``channel``'s transmitter: the
+    radar's, ``(radar, None)``; or, where that transmit element has a pattern or boresight of
+    its own (ping-pong: the channel's element), a copy of the radar with the element's
+    beamwidths (its gain, :attr:`Radar.antenna_gain`) and the element's antenna-to-body
+    rotation (:func:`mitsar.model.elements.element_frame`). Then the candidates, the beam
+    cull, the multipath rays and the two-way pattern follow the transmitter's own beam, and
+    every receiver takes its own element beam (the radar's antenna for one without)
+    expressed in that frame (:meth:`Radar.channel_beams`; docs/interferometry.md §8)."""
+    if not radar.has_channels or not 0 <= channel < radar.channel_count:
+        return radar, None   # (a channel out of range is refused by name in _channels)
+    element = radar.channel_elements()[0][channel]
+    if not element.has_own_beam:
+        return radar, None
+    beam = element_beam(element, (radar.azimuth_beamwidth, radar.elevation_beamwidth), look)
+    return (dataclasses.replace(radar, azimuth_beamwidth_deg=math.degrees(beam.beamwidth_az),
+                                elevation_beamwidth_deg=math.degrees(beam.beamwidth_el)),
+            element_frame(element, look))
+
 

@@ -175,8 +175,9 @@ def receive_pattern(arrival: Any, axes: tuple, constants: Constants,
     (from the receiver): the radar's antenna (``axes``: its azimuth, elevation and boresight
     axes, world frame), or the receive element's own beam (``sweep_arrays.beams``) on the
     direction sines in the radar's frame, times ``sqrt(G_t G_r) / G`` with the radar equation
-    (:func:`mitsar.model.elements.channel_amplitude_factor`'s receive part; the transmit
-    elements share the radar's beam, so the launch pattern is the transmitter's)."""
+    (:func:`mitsar.model.elements.channel_amplitude_factor`'s receive part; the launch
+    pattern is the transmitter's: the radar's antenna, or its element's own beam, which the
+    tracer then follows, ``trace_run._transmit_beam``)."""
     if sweep_arrays.beams is None:
         return _field_pattern(arrival, axes[0], axes[1], constants)
     _, receive, gain_ratio = sweep_arrays.beams[receiver]
