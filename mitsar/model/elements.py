@@ -177,7 +177,11 @@ def body_vector(where: str, name: str, value: Any, expected: str
 
 def element_frame(element: Element, look: Look) -> NDArray[np.float64]:
     """The element's antenna-to-body rotation (columns: azimuth axis, elevation axis,
-    boresight), module docstring; the look's for an element without a boresight of its own."""
+    boresight), module docstring; the look's for an element without a boresight of its own.
+    A ``boresight`` vector takes the azimuth axis ``b x z`` (body x for a boresight along body
+    z): the roll jumps by 90 degrees between a boresight straight down and one a hair off it,
+    which swaps the axes of a beam whose azimuth and elevation widths differ; give
+    ``off_nadir_deg``/``squint_deg`` for such a beam near nadir."""
     if element.off_nadir_deg is not None:
         return Look(element.off_nadir_deg, element.squint_deg or 0.0).antenna_to_body()
     if element.boresight is None:
@@ -222,7 +226,9 @@ class ElementBeam(NamedTuple):
     Attributes
     ----------
     rotation : tuple of 3 tuples of 3 floats
-        ``M = E^T A``: direction sines in the radar's antenna frame ``A`` (the look's) to the
+        ``M = E^T A``: direction sines in the antenna frame ``A`` (the look's, the radar's
+        antenna; or the frame :func:`element_beam` is given: the transmit element the ray
+        tracer follows) to the
         element's frame ``E`` (:func:`element_frame`), ``s_element = M s_radar``.
     beamwidth_az, beamwidth_el : float
         The element's beamwidths [rad].

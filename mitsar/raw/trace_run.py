@@ -247,10 +247,12 @@ class TraceRun:
                                  "docs/interferometry.md)", self.config.receiver_offset)
         transmitters, receivers = radar.channel_offsets()
         slots = radar.firing(np.arange(radar.transmitter_count))
-        group = {(transmitters[c], tuple(slots[c])) for c in channels}
+        elements = radar.channel_elements()[0]
+        group = {(elements[c], tuple(slots[c])) for c in channels}
         if len(group) != 1:
             raise ParameterError(where, "channels", "channels of one transmitter (one "
-                                 "offset and time slot) traced together", channels)
+                                 "element: offset and beam; one time slot) traced together",
+                                 channels)
         channel = channels[0]
         if radar.is_tdm:
             self.sweeps = self.sweeps[radar.firing(self.sweeps)[channel]]
@@ -495,7 +497,9 @@ def _transmit_beam(radar: Radar, look: Look, channel: int) -> tuple[Radar, NDArr
         return radar, None
     beam = element_beam(element, (radar.azimuth_beamwidth, radar.elevation_beamwidth), look)
     return (dataclasses.replace(radar, azimuth_beamwidth_deg=math.degrees(beam.beamwidth_az),
-                                elevation_beamwidth_deg=math.degrees(beam.beamwidth_el)),
+                                elevation_beamwidth_deg=math.degrees(beam.beamwidth_el),
+                                receivers=radar.receiver_elements,
+                                transmitters=radar.transmitter_elements),
             element_frame(element, look))
 
 

@@ -172,8 +172,8 @@ def trace_paths(radar: Radar, trajectory: Trajectory, look: Look, scene: Any, *,
     if chosen.ndim != 1 or np.any(chosen < 0) or np.any(chosen >= len(grid)):
         raise ParameterError("trace_paths", "rays", f"a count or ray indices in [0, "
                              f"{len(grid)})", rays)
-    log = run.integrator.trace_paths(run.scene, run.geometry, radar, run.frames, int(sweep),
-                                     chosen, config, run.setup)
+    log = run.integrator.trace_paths(run.scene, run.geometry, run.trace_radar, run.frames,
+                                     int(sweep), chosen, config, run.setup)
     box = run.scene.bbox()
     size = float(np.linalg.norm(np.array([float(v) for v in box.max])
                                 - np.array([float(v) for v in box.min]))) or 1.0
@@ -218,19 +218,24 @@ def trace_paths(radar: Radar, trajectory: Trajectory, look: Look, scene: Any, *,
 
 
 def _setup_for(run: TraceRun, config: Any) -> Any:
+    """The run's set-up remade for ``config`` (another ``max_depth``): the traced antenna's
+    ray set, the run's receive channels and their beams kept."""
     rx_frames = (None if run.receiver_look is None
                  else antenna_frame(run.receiver_look, *run.geometry.attitude.T))
-    return make_setup(run.radar, run.frames, config, run.setup.receiver_offset, rx_frames)
+    setup = make_setup(run.trace_radar, run.frames, config, run.setup.receiver_offset,
+                       rx_frames)
+    return dataclasses.replace(setup, channel_receivers=run.setup.channel_receivers,
+                               channel_beams=run.setup.channel_beams)
 
 
 def _transmitter_groups(radar: Radar) -> list[tuple[int, ...]]:
-    """The channels of a multi-channel radar grouped by transmitter (offset and time slot),
-    in channel order: one trace each (:class:`~mitsar.raw.trace_run.TraceRun`)."""
-    transmitters, _ = radar.channel_offsets()
+    """The channels of a multi-channel radar grouped by transmitter (element: offset and beam;
+    time slot), in channel order: one trace each (:class:`~mitsar.raw.trace_run.TraceRun`)."""
+    elements, _ = radar.channel_elements()
     slots = radar.firing(np.arange(radar.transmitter_count))
     groups: dict[Any, list[int]] = {}
     for channel in range(radar.channel_count):
-        groups.setdefault((transmitters[channel], tuple(slots[channel])), []).append(channel)
+        groups.setdefault((elements[channel], tuple(slots[channel])), []).append(channel)
     return [tuple(group) for group in groups.values()]
 
 
@@ -364,6 +369,11 @@ def simulate_scene(radar: Radar, trajectory: Trajectory, look: Look, scene: Any,
     channels = range(radar.channel_count)
     config = run.config
     attrs = run.attrs()
+    # every transmitter's reception warnings (each traces its own beam), each sentence once
+    sentences = dict.fromkeys(line for group_run, _, _ in traced
+                              for line in group_run.reception_warnings)
+    if sentences:
+        attrs["reception_warnings"] = "\n".join(sentences)
     attrs.update(simulator="ray tracing (radar integrator)", normalized=int(config.normalized),
                  orders=[int(o) for o in kept])
     if targets or background is not None:

@@ -424,7 +424,8 @@ def backscatter_chunk(scene: Any, scatterers: ScattererArrays, geometry: SweepGe
     ``acquisition`` holds the acquisition's constants (:func:`~.constants.backscatter_constants`);
     the chunk's bounds and launch offsets replace theirs. ``statistics`` counts pairs,
     candidate pairs, shadow rays (contributions: lanes in the beam and the bin grid), launches,
-    ``visibility_rays`` (rays of the block probes, every shadowing receiver's included) and
+    ``visibility_rays`` (rays of the block probes, every shadowing receiver's included: an
+    upper bound, its rays being cast only where the transmitter's sees) and
     ``visibility_split`` (candidate x block pairs traced sweep by sweep: their ends, or the
     transmitter and a receiver, disagree). ``visibility_block`` caps the sweeps that share
     shadow rays (e.g. the sweeps between two scene changes; default: the chunk); blocks are
@@ -450,8 +451,9 @@ def backscatter_chunk(scene: Any, scatterers: ScattererArrays, geometry: SweepGe
     # serves static 3D scatterer sets with shared shadow rays; moving sets, the 2D mode and a
     # ray per sweep keep the lane kernels. Its probes share the rays at block boundaries unless
     # the caller caps the blocks (e.g. at scene changes).
-    # Receive elements with their own beams (setup.channel_beams) take the lane kernels: the
-    # block kernel's amplitude polynomial is the transmitter's two-way pattern, one for all.
+    # Elements with their own beams (setup.channel_beams: receive elements, or a transmit
+    # element traced with its own beam) take the lane kernels: the block kernel's amplitude
+    # polynomial is the traced antenna's two-way pattern, one for all.
     blocked = (block_kernel_applies(config, scatterers.static, sweep_arrays.planar)
                and len(chosen) <= MAX_CHUNK_SWEEPS and setup.channel_beams is None)
     shared = blocked and visibility_block is None

@@ -53,10 +53,12 @@ class TraceSetup:
     channel_beams : tuple of (ElementBeam, ElementBeam, float), or None
         Per receiver of :attr:`channel_receivers`, the (transmit, receive)
         :class:`~mitsar.model.elements.ElementBeam` of its channel and its gain ratio
-        ``sqrt(G_t G_r) / G`` (radar equation) when some receive element
-        has its own pattern or boresight (docs/interferometry.md §8): its deposits then take
-        :func:`~mitsar.model.elements.channel_amplitude_factor` in place of the shared
-        two-way pattern. None: every receiver uses the radar's antenna.
+        ``sqrt(G_t G_r) / G`` (radar equation; G the gain of the antenna traced: the radar's,
+        or the transmit element's own, ``trace_run._transmit_beam``) when some element has
+        its own pattern or boresight (docs/interferometry.md §8), in the traced antenna's
+        frame: its deposits then take :func:`~mitsar.model.elements.channel_amplitude_factor`
+        in place of the shared two-way pattern. None: every receiver uses the radar's
+        antenna.
     """
 
     ray_frames: NDArray
