@@ -118,11 +118,28 @@ def test_spectral_channels_refuse_what_they_cannot_focus(raw):
                       u=[-0.1, 0.1, 0.05], v=[-0.1, 0.1, 0.05])
     with pytest.raises(ParameterError, match="SlantGrid"):
         mitsar.focus(raw, "rda", plane)
-    tdm = mitsar.Radar(transmitters=[(0, 0, 0), (0, 0, 0.01)], receivers=[(0, 0, 0)])
-    raw = mitsar.simulate_point_targets(tdm, TRACK, LOOK, [mitsar.PointTarget(PIXEL)],
+
+
+def test_tdm_mimo_channels_focus_spectrally_on_their_own_sweeps():
+    """TDM-MIMO 2 x 2: a channel holds every second sweep (its transmitter's slot), each from
+    its own track point, sampled at PRF / 2; its slant grid's along-track axis counts from its
+    own first sweep, one step along, so it is moved onto channel 0's pixels
+    (channels._same_pixels). Every channel's interferometric phase against channel 0 within
+    1 mrad of BPA's (measured 0.26 mrad) and its peak within 0.1 pixel of BPA's (measured
+    0.03 pixel; 0.17 pixel, the step between the slots, before the grids were aligned)."""
+    tdm = mitsar.Radar(transmitters=[(0, 0, 0), (0, 0, 0.02)], receivers=[(0, 0, 0),
+                                                                          tuple(BASELINE)])
+    raw = mitsar.simulate_point_targets(tdm, TRACK, LOOK,
+                                        [mitsar.PointTarget(PIXEL + 0.1 * NORMAL)],
                                         normalized=True)
-    with pytest.raises(ParameterError, match="TDM-MIMO"):
-        mitsar.focus(raw, "wda", GRID)
+    bpa = mitsar.focus(raw, "bpa", GRID, azimuth_resolution=0.1)["image"].values
+    for name in ("rda", "wda", "fsa"):
+        values = mitsar.focus(raw, name, GRID, azimuth_resolution=0.1)["image"].values
+        for k in range(1, 4):
+            phase = np.angle(values[k, 20, 20] * np.conj(values[0, 20, 20])
+                             * np.conj(bpa[k, 20, 20] * np.conj(bpa[0, 20, 20])))
+            assert abs(phase) < 1e-3, (name, k)
+            assert np.abs(_peak(values[k]) - _peak(bpa[k])).max() < 0.1, (name, k)
 
 
 def test_squinted_spectral_channels_agree_with_bpa():

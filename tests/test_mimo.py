@@ -134,7 +134,8 @@ def test_channel_view_keeps_its_firing_sweeps(raw):
     assert np.array_equal(view["sweep"].values, raw["sweep"].values[1::3])
     assert np.array_equal(view["platform_position"].values,
                           raw["platform_position"].values[1::3])  # its own slot's motion
-    with pytest.raises(ParameterError, match="'bpa' or 'ffbp'"):
+    # sampled at PRF / 3: the whole beam's Doppler band does not fit (any focuser)
+    with pytest.raises(ParameterError, match=r"sweep rate 83.3+ Hz \(PRF 250 Hz / 3 trans"):
         mitsar.focus(view, "rda")
 
 

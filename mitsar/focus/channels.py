@@ -51,7 +51,7 @@ import xarray as xr
 from mitsar.errors import MitsarWarning, ParameterError
 from mitsar.focus.autofocus.apply import correct_raw
 from mitsar.focus.bp_setup import channel_phase_centres
-from mitsar.focus.grid import Grid, PointsGrid, SlantGrid, VolumeGrid
+from mitsar.focus.grid import Grid, PointsGrid, SlantGrid, VolumeGrid, track_frame
 from mitsar.focus.motion import centroid_sines
 from mitsar.model.geometry.attitude import body_to_world
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
@@ -265,10 +265,6 @@ def _focus_spectral(raw: xr.Dataset, algorithm: str, grid: Grid,
     """RDA/WDA/FSA of every channel, compensated onto the common reference (module
     docstring), onto the one slant grid: channel 0's product and every channel's image."""
     radar = radar_of(raw)
-    if radar.is_tdm:
-        raise ParameterError("focus", "algorithm", "'bpa' for a TDM-MIMO raw product (a "
-                             "channel holds every N_tx-th sweep; the spectral algorithms "
-                             "assume every sweep)", algorithm)
     if not isinstance(grid, SlantGrid):
         raise ParameterError("focus", "grid", f"a SlantGrid for {algorithm!r} (the frequency-"
                              "domain algorithms form the image in along-track / slant-range "
@@ -276,12 +272,28 @@ def _focus_spectral(raw: xr.Dataset, algorithm: str, grid: Grid,
                              type(grid).__name__)
     # The grid's surface and range axis (its along-track extent does not matter here).
     layout = grid.resolve(channel_view(raw, 0), radar, 1.0)
-    products = [focus_one(compensate_channel(channel_view(raw, k), radar, layout), grid, None)
-                for k in range(raw.sizes["channel"])]
-    first = products[0]
+    first = focus_one(compensate_channel(channel_view(raw, 0), radar, layout), grid, None)
+    products = [first]
+    for k in range(1, raw.sizes["channel"]):
+        view = compensate_channel(channel_view(raw, k), radar, layout)
+        products.append(focus_one(view, _same_pixels(grid, first, view), None))
     first.attrs["channel_compensation"] = ("each channel's bistatic path compensated onto the "
                                            "monostatic track reference (mitsar.focus.channels)")
     return first, [product["image"].values for product in products]
+
+
+def _same_pixels(grid: SlantGrid, first: xr.Dataset, view: xr.Dataset) -> SlantGrid:
+    """``grid`` for a channel view whose track starts elsewhere than channel 0's (a TDM-MIMO
+    channel: its first sweep is its slot's, a sweep's step or more along): a slant grid's
+    along-track axis counts from the view's first track point (:func:`mitsar.focus.grid.
+    track_frame`), so channel 0's axis (``first``'s ``azimuth``) is moved by the offset between
+    the two starts, and the view's pixels are channel 0's."""
+    origin, along, _ = track_frame(view)
+    shift = float((np.asarray(first.attrs["grid_origin"], dtype=float) - origin) @ along)
+    if shift == 0.0:
+        return grid
+    return SlantGrid(along_track=np.asarray(first["azimuth"].values, dtype=float) + shift,
+                     slant_range=np.asarray(first["range"].values, dtype=float))
 
 
 def channel_path_error(raw: xr.Dataset, layout: dict, shift: float = 0.0,

@@ -197,11 +197,6 @@ def focus(raw: xr.Dataset | Sequence[xr.Dataset], algorithm: str = "bpa",
             band_limit=band_limit and not autofocus), autofocus)
 
     radar = radar_of(raw)
-    if int(raw.attrs.get("sweep_stride", 1)) > 1 and algorithm not in ("bpa", "ffbp"):
-        raise ParameterError("focus", "algorithm", "'bpa' or 'ffbp' for one channel of a "
-                             "TDM-MIMO product (its sweeps are every "
-                             f"{raw.attrs['sweep_stride']}-th of the pass; the spectral "
-                             "algorithms assume every sweep)", algorithm)
     half_width = aperture_half_width(radar, azimuth_resolution)
     if "reference_range" not in raw.variables:  # recordings carry their own sampling
         _check_processed_band(raw, radar, half_width, azimuth_resolution)

@@ -41,6 +41,7 @@ from mitsar.errors import ParameterError
 from mitsar.focus.motion import centroid_sines
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
 from mitsar.model.signal import fast_time
+from mitsar.products.raw import sweep_rate
 
 __all__ = ["ReferenceLine", "compensate", "deviation_limit", "reference_line",
            "reference_product"]
@@ -137,7 +138,8 @@ def reference_product(raw: xr.Dataset, line: ReferenceLine, radar: Radar) -> xr.
     sweeps = len(line.positions)
     out["platform_position"] = (("sweep", "xyz"), line.positions, {"units": "m"})
     out["platform_velocity"] = (("sweep", "xyz"),
-                                np.tile(line.velocity * radar.prf, (sweeps, 1)), {"units": "m/s"})
+                                np.tile(line.velocity * sweep_rate(raw, radar), (sweeps, 1)),
+                                {"units": "m/s"})
     boresight = np.asarray(raw["boresight"].values, dtype=float).mean(axis=0)
     out["boresight"] = (("sweep", "xyz"), np.tile(boresight / np.linalg.norm(boresight),
                                                   (sweeps, 1)), {"units": "1"})
@@ -192,14 +194,16 @@ def compensate(raw: xr.Dataset, reference: xr.Dataset, line: ReferenceLine, rada
     row_along = uniform[0] + (row[0] - line.origin) @ line.along
     abeam = row[None, :, :] + (uniform - row_along)[:, None, None] * line.along
     actual = line.positions + line.deviation
-    actual_velocity = np.gradient(actual, axis=0) * radar.prf
+    per_second = sweep_rate(raw, radar)  # the PRF; PRF / N_tx for one TDM-MIMO channel
+    actual_velocity = np.gradient(actual, axis=0) * per_second
     to_actual = abeam - actual[:, None, :]
     to_reference = abeam - line.positions[:, None, :]
     range_actual = np.linalg.norm(to_actual, axis=-1)
     range_reference = np.linalg.norm(to_reference, axis=-1)
     error = range_actual - range_reference  # (sweeps, ranges) [m]
     rate = (-np.einsum("srx,sx->sr", to_actual, actual_velocity) / range_actual
-            + np.einsum("srx,x->sr", to_reference, line.velocity * radar.prf) / range_reference)
+            + np.einsum("srx,x->sr", to_reference, line.velocity * per_second)
+            / range_reference)
     centre = row.shape[0] // 2
     residual = np.abs(error - error[:, centre:centre + 1]).max()
     if residual > ENVELOPE_TOLERANCE_CELLS * radar.range_resolution:

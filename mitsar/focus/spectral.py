@@ -43,6 +43,7 @@ from mitsar.focus.motion import TrackGeometry, motion_correction_phase, straight
 from mitsar.focus.windows import evaluate_window, window_coefficients, window_samples
 from mitsar.model.radar import SPEED_OF_LIGHT, Radar
 from mitsar.model.signal import fast_time
+from mitsar.products.raw import sweep_rate
 
 CHANNEL_DIRECTION_ERROR = "channel_direction_error"
 """The variable of a compensated receive channel (:data:`mitsar.focus.channels.DIRECTION_ERROR`)
@@ -241,9 +242,10 @@ def prepare_spectrum(raw: xr.Dataset, radar: Radar, layout: dict, *, half_width:
     k_x_high = -low * k_r.max() if low < 0 else -low * k_r.min()
     sample_rate = 2 * np.pi / track.spacing  # along-track sampling wavenumber
     if k_x_high - k_x_low >= sample_rate:
-        band = (k_x_high - k_x_low) / sample_rate * radar.prf
+        rate = sweep_rate(raw, radar)  # the PRF; PRF / N_tx for one TDM-MIMO channel
+        band = (k_x_high - k_x_low) / sample_rate * rate
         raise ParameterError(where, "azimuth_resolution", f"a processed Doppler band narrower "
-                             f"than the PRF ({radar.prf:g} Hz)", f"{band:.4g} Hz")
+                             f"than the sweep rate ({rate:g} Hz)", f"{band:.4g} Hz")
     # Bin spacing: fine enough across the band, and a period in X longer than data + apertures.
     g_low = low / np.sqrt(1 - low**2)
     g_high = high / np.sqrt(1 - high**2)
