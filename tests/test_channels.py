@@ -470,3 +470,36 @@ def test_navigation_errors_cost_little_height_and_one_autofocus_serves_all_chann
     image = results["pga"][2]
     assert image.attrs["autofocus_converged"] == 1
     assert image.attrs["autofocus_channels"] == "channel 0's phase applied to all"
+
+
+def test_one_autofocus_serves_the_channels_of_every_tdm_slot():
+    """TDM-MIMO 2 x 2 on the navigation-error pass above: PGA on channel 0 (slot 0), its phase
+    applied to the channels of slot 0 and, interpolated to their sweeps, to those of slot 1
+    (channels._phase_at). Every channel's peak comes back within 0.5 dB of the error-free image
+    (measured 0.13 dB for slot 0, 0.30 dB for slot 1: the noise part of the error changes
+    between the slots' sweeps; 2.9-3.1 dB below without autofocus), and every interferometric
+    phase stays within 30 mrad of the error-free one (measured 7-18 mrad: the recorded track's
+    position error, as with one transmitter; about 1 mm of height on the 7 cm pair)."""
+    radar = mitsar.Radar(transmitters=[(0, 0, 0), (0, 0, 0.02)],
+                         receivers=[(0, 0, 0), (0, 0, BASELINE)])
+    target = np.array([15.0, 8.0, 0.15])
+    track = mitsar.Trajectory.linear([14.0, 1.4, 4.5], [0.5, 0.0, 0.0], 3.2)
+    pixel = _reference_pixel(target, track)
+    grid = mitsar.grid.PlaneGrid(origin=pixel, axis_u=[0, 1, 0], axis_v=[1, 0, 0],
+                                 u=[-0.2, 0.2, 0.02], v=[-0.2, 0.2, 0.02])
+    errors = mitsar.NavigationErrors(seed=7, position_random_walk=(5e-4, 5e-4, 5e-4),
+                                     position_noise=(3e-4, 3e-4, 3e-4))
+    results = {}
+    for name, navigation, autofocus in (("ideal", None, None), ("errors", errors, None),
+                                        ("pga", errors, "pga")):
+        raw = mitsar.simulate_point_targets(radar, track, LOOK, [mitsar.PointTarget(target)],
+                                            normalized=True, navigation=navigation)
+        values = mitsar.focus(raw, "bpa", grid, azimuth_resolution=0.1,
+                              autofocus=autofocus)["image"].values
+        peak = np.unravel_index(np.abs(values[0]).argmax(), values.shape[1:])
+        results[name] = (20 * np.log10(np.abs(values).reshape(4, -1).max(axis=1)),
+                         np.angle(values[(slice(None), *peak)] * np.conj(values[(0, *peak)])))
+    ideal, focused, blurred = results["ideal"], results["pga"], results["errors"]
+    assert np.all(blurred[0] < ideal[0] - 1.5)
+    assert np.all(np.abs(focused[0] - ideal[0]) < 0.5)
+    assert np.all(np.abs(_wrap(focused[1] - ideal[1])) < 0.03)

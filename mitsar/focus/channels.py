@@ -139,17 +139,14 @@ def focus_channels(raw: xr.Dataset, algorithm: str, grid: Grid,
         one phase screen keeps the interferometric phase unbiased (an autofocus per channel
         would give each channel its own constant and linear phase). The image records
         ``autofocus_phase`` and ``autofocus_channels = "channel 0's phase applied to all"``.
-        Not with TDM-MIMO (its channels hold different sweeps).
+        A TDM-MIMO channel of another slot takes that phase interpolated to its own sweeps
+        (:func:`_phase_at`).
 
     Returns
     -------
     xarray.Dataset
         The image product with a ``channel`` dimension (module docstring).
     """
-    if autofocus is not None and radar_of(raw).is_tdm:
-        raise ParameterError("focus", "autofocus", "None for a TDM-MIMO raw product (its "
-                             "channels hold the sweeps of different transmitters; "
-                             "docs/interferometry.md)", autofocus)
     band = (common_band(raw) if radar_of(raw).has_element_beams
             and "look_off_nadir_deg" in raw.attrs else None)
     if band is not None:  # every channel on the channels' common band (module docstring)
@@ -163,9 +160,10 @@ def focus_channels(raw: xr.Dataset, algorithm: str, grid: Grid,
         pixels = grid if isinstance(grid, VolumeGrid) else PointsGrid(first["position"].values)
 
         def view(k: int) -> xr.Dataset:
+            channel = channel_view(raw, k)
             if autofocus is None:
-                return channel_view(raw, k)
-            return correct_raw(channel_view(raw, k), first["autofocus_phase"].values)
+                return channel
+            return correct_raw(channel, _phase_at(first["autofocus_phase"], channel))
 
         images = [first["image"].values] + [focus_one(view(k), pixels, None)["image"].values
                                             for k in range(1, raw.sizes["channel"])]
@@ -280,6 +278,19 @@ def _focus_spectral(raw: xr.Dataset, algorithm: str, grid: Grid,
     first.attrs["channel_compensation"] = ("each channel's bistatic path compensated onto the "
                                            "monostatic track reference (mitsar.focus.channels)")
     return first, [product["image"].values for product in products]
+
+
+def _phase_at(phase: xr.DataArray, view: xr.Dataset) -> np.ndarray:
+    """Channel 0's autofocus phase (``autofocus_phase`` over its sweeps) [rad] at the sweeps of
+    a channel view: the same where they are its sweeps; a TDM-MIMO channel of another slot
+    fires between them, and the platform's phase error, smooth over a sweep or two, is
+    interpolated linearly in the sweep index (unwrapped; held at the ends)."""
+    own = np.asarray(phase["sweep"].values)
+    sweeps = np.asarray(view["sweep"].values)
+    values = np.asarray(phase.values, dtype=float)
+    if np.array_equal(own, sweeps):
+        return values
+    return np.interp(sweeps, own, np.unwrap(values))
 
 
 def _same_pixels(grid: SlantGrid, first: xr.Dataset, view: xr.Dataset) -> SlantGrid:
