@@ -435,6 +435,27 @@ def test_distributed_target_coherence_is_the_thermal_decorrelation():
         assert np.mean(estimates) == pytest.approx(1 / (1 + 1 / snr), abs=0.02), extra_db
 
 
+def _navigation_images(radar):
+    """A point target 15 cm above the floor, a 1.6 m pass and a ground grid around its
+    reference pixel, imaged (BPA, 0.1 m) error-free ("ideal"), from a navigation track with
+    seeded errors (0.5 mm/sqrt(s) random walk, 0.3 mm Gauss-Markov noise per axis; "errors")
+    and the same with PGA ("pga"): (target, {name: image})."""
+    target = np.array([15.0, 8.0, 0.15])
+    track = mitsar.Trajectory.linear([14.0, 1.4, 4.5], [0.5, 0.0, 0.0], 3.2)
+    grid = mitsar.grid.PlaneGrid(origin=_reference_pixel(target, track), axis_u=[0, 1, 0],
+                                 axis_v=[1, 0, 0], u=[-0.2, 0.2, 0.02], v=[-0.2, 0.2, 0.02])
+    errors = mitsar.NavigationErrors(seed=7, position_random_walk=(5e-4, 5e-4, 5e-4),
+                                     position_noise=(3e-4, 3e-4, 3e-4))
+    images = {}
+    for name, navigation, autofocus in (("ideal", None, None), ("errors", errors, None),
+                                        ("pga", errors, "pga")):
+        raw = mitsar.simulate_point_targets(radar, track, LOOK, [mitsar.PointTarget(target)],
+                                            normalized=True, navigation=navigation)
+        images[name] = mitsar.focus(raw, "bpa", grid, azimuth_resolution=0.1,
+                                    autofocus=autofocus)
+    return target, images
+
+
 @pytest.mark.slow
 def test_navigation_errors_cost_little_height_and_one_autofocus_serves_all_channels():
     """Echoes from the true track, focused on a navigation track with a 0.5 mm/sqrt(s) random walk
@@ -445,20 +466,9 @@ def test_navigation_errors_cost_little_height_and_one_autofocus_serves_all_chann
     dB of the error-free image; measured 0.09 dB; minimum entropy: 0.58 dB) without biasing the
     height. What the motion errors cost in height here: 0.6 mm, from the recorded track's geometric
     error, not from the phase."""
-    radar = mitsar.Radar(receivers=[(0, 0, 0), (0, 0, BASELINE)])
-    target = np.array([15.0, 8.0, 0.15])
-    track = mitsar.Trajectory.linear([14.0, 1.4, 4.5], [0.5, 0.0, 0.0], 3.2)
-    pixel = _reference_pixel(target, track)
-    grid = mitsar.grid.PlaneGrid(origin=pixel, axis_u=[0, 1, 0], axis_v=[1, 0, 0],
-                                 u=[-0.2, 0.2, 0.02], v=[-0.2, 0.2, 0.02])
-    errors = mitsar.NavigationErrors(seed=7, position_random_walk=(5e-4, 5e-4, 5e-4),
-                                     position_noise=(3e-4, 3e-4, 3e-4))
+    target, images = _navigation_images(mitsar.Radar(receivers=[(0, 0, 0), (0, 0, BASELINE)]))
     results = {}
-    for name, navigation, autofocus in (("ideal", None, None), ("errors", errors, None),
-                                        ("pga", errors, "pga")):
-        raw = mitsar.simulate_point_targets(radar, track, LOOK, [mitsar.PointTarget(target)],
-                                            normalized=True, navigation=navigation)
-        image = mitsar.focus(raw, "bpa", grid, azimuth_resolution=0.1, autofocus=autofocus)
+    for name, image in images.items():
         magnitude = np.abs(image["image"].values[0])
         peak = np.unravel_index(magnitude.argmax(), magnitude.shape)
         height = float(mitsar.interferogram(image, unwrap=False)["height"].values[peak])
@@ -482,20 +492,9 @@ def test_one_autofocus_serves_the_channels_of_every_tdm_slot():
     position error, as with one transmitter; about 1 mm of height on the 7 cm pair)."""
     radar = mitsar.Radar(transmitters=[(0, 0, 0), (0, 0, 0.02)],
                          receivers=[(0, 0, 0), (0, 0, BASELINE)])
-    target = np.array([15.0, 8.0, 0.15])
-    track = mitsar.Trajectory.linear([14.0, 1.4, 4.5], [0.5, 0.0, 0.0], 3.2)
-    pixel = _reference_pixel(target, track)
-    grid = mitsar.grid.PlaneGrid(origin=pixel, axis_u=[0, 1, 0], axis_v=[1, 0, 0],
-                                 u=[-0.2, 0.2, 0.02], v=[-0.2, 0.2, 0.02])
-    errors = mitsar.NavigationErrors(seed=7, position_random_walk=(5e-4, 5e-4, 5e-4),
-                                     position_noise=(3e-4, 3e-4, 3e-4))
     results = {}
-    for name, navigation, autofocus in (("ideal", None, None), ("errors", errors, None),
-                                        ("pga", errors, "pga")):
-        raw = mitsar.simulate_point_targets(radar, track, LOOK, [mitsar.PointTarget(target)],
-                                            normalized=True, navigation=navigation)
-        values = mitsar.focus(raw, "bpa", grid, azimuth_resolution=0.1,
-                              autofocus=autofocus)["image"].values
+    for name, image in _navigation_images(radar)[1].items():
+        values = image["image"].values
         peak = np.unravel_index(np.abs(values[0]).argmax(), values.shape[1:])
         results[name] = (20 * np.log10(np.abs(values).reshape(4, -1).max(axis=1)),
                          np.angle(values[(slice(None), *peak)] * np.conj(values[(0, *peak)])))
